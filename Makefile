@@ -1,0 +1,48 @@
+# mcnkit — two commands on a fresh machine:  make demo   |   make test
+# Everything installs into .venv from the package registries (torch: the local CPU wheel, pinned).
+
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+SHARED ?= ../shared/data
+
+export RERUN_ANALYTICS = 0
+export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
+
+.PHONY: help venv demo test lint typecheck pytest bench clean
+
+help:
+	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> SLAM map)"
+	@echo "make test   set up .venv and run ruff, mypy and pytest (all tests, slow ones included)"
+	@echo "make bench  run the benchmarks in benchmarks/ (figures printed and written as JSON)"
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[dev]"
+	$(VENV)/bin/rerun analytics disable >/dev/null 2>&1 || true
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/mcnkit demo
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check mcnkit tests benchmarks
+
+typecheck: $(STAMP)
+	$(VENV)/bin/mypy
+
+pytest: $(STAMP)
+	$(PY) -m pytest -q
+
+test: lint typecheck pytest
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_io.py
+	$(PY) benchmarks/bench_slam.py
+
+clean:
+	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

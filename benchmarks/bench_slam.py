@@ -1,0 +1,161 @@
+"""Benchmark of the grid FastSLAM (issue 3) on the real logs, against the gmapping anchors.
+
+Runs, each in its own subprocess (so CPU time and peak RSS are the SLAM run's own):
+
+* MIT CSAIL raw log, 30 particles, 0.05 m cells, seeds 0 1 2: Kümmerle relations error of the best
+  particle's trajectory (gmapping's convention: last corrected pose + odometry change between updates)
+  and of the smoothed trajectory; CPU s, wall s, peak RSS, filter updates;
+* Intel lab (raw odometry rebuilt from the corrected log): ATE / RPE against the corrected poses;
+* DP-SLAM loop5: a run whose map shows whether the ~56 m loop closes.
+
+Writes ``benchmarks/results/slam.json`` and the maps ``benchmarks/results/slam_*.png``.
+
+    .venv/bin/python benchmarks/bench_slam.py [--seeds 0 1 2] [--data ../shared/data]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data"
+GMAPPING = {"translation_m": "0.047-0.049", "rotation_deg": "2.9-3.0", "cpu_s": "39.7-41.1", "rss_mb": "85-99"}
+
+
+def _child(log: str, seed: int, out: str) -> int:
+    """Runs ``mcnkit slam`` in this process (the subprocess side)."""
+    from mcnkit.slam.cli import add_slam_parser
+
+    parser = argparse.ArgumentParser()
+    add_slam_parser(parser.add_subparsers())
+    args = parser.parse_args(
+        ["slam", log, "--particles", "30", "--resolution", "0.05", "--seed", str(seed), "--out", out, "--no-progress"]
+    )
+    return int(args.func(args))
+
+
+def _run(log: Path, seed: int, out: Path) -> dict:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(
+        [sys.executable, __file__, "--child", str(log), str(seed), str(out)], check=True, stdout=subprocess.DEVNULL
+    )
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    summary = json.loads((out / "summary.json").read_text())
+    summary["process_cpu_s"] = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    summary["process_wall_s"] = time.perf_counter() - t0
+    return summary
+
+
+def main() -> int:
+    if len(sys.argv) == 5 and sys.argv[1] == "--child":
+        return _child(sys.argv[2], int(sys.argv[3]), sys.argv[4])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--skip-other-logs", action="store_true", help="MIT CSAIL only")
+    a = parser.parse_args()
+
+    from mcnkit.io import open_log
+    from mcnkit.metrics import (
+        absolute_trajectory_error,
+        read_relations,
+        read_tum,
+        relations_error,
+        relative_pose_error,
+    )
+
+    a.results.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix="bench_slam_"))
+    mit = a.data / "reallab" / "mit-csail" / "mit-csail.clf"
+    relations = read_relations(a.data / "reallab" / "mit-csail" / "mit-csail.relations")
+    report: dict = {"gmapping_anchor": GMAPPING, "mit_csail": []}
+    print("MIT CSAIL, 30 particles, 0.05 m (gmapping C++: 0.047-0.049 m, 2.9-3.0 deg, 39.7-41.1 s CPU, 85-99 MB)")
+    print("relations error (mean ± std) of three trajectories from the same run:")
+    print("  gmapping = last corrected pose + odometry between updates (the convention of the gmapping anchor)")
+    print("  smoothed = each correction spread over its interval; matched = every scan matched to the final map")
+    print(" seed | gmapping: m / deg | smoothed: m / deg | matched: m / deg | CPU s | wall s | RSS MB | updates")
+    kinds = {"gmapping": "trajectory_gmapping.tum", "smoothed": "trajectory_smoothed.tum", "matched": "trajectory.tum"}
+    for seed in a.seeds:
+        out = work / f"mit_{seed}"
+        s = _run(mit, seed, out)
+        errs = {k: relations_error(read_tum(out / f), relations) for k, f in kinds.items()}
+        row = {"seed": seed, **{f"relations_{k}": e.as_dict() for k, e in errs.items()}, **s}
+        report["mit_csail"].append(row)
+        shutil.copy(out / "map.png", a.results / f"slam_mit_csail_seed{seed}.png")
+        cells = " | ".join(
+            f"{e.translation_mean_m:.4f}±{e.translation_std_m:.3f} / {e.rotation_mean_deg:.2f}±{e.rotation_std_deg:.2f}"
+            for e in errs.values()
+        )
+        print(
+            f" {seed:4d} | {cells} | {s['process_cpu_s']:.1f} | {s['process_wall_s']:.1f} | "
+            f"{s['peak_rss_mb']:.0f} | {s['filter_updates']}"
+        )
+    rows = report["mit_csail"]
+    for k in kinds:
+        t = [r[f"relations_{k}"]["translation_mean_m"] for r in rows]
+        r_ = [r[f"relations_{k}"]["rotation_mean_deg"] for r in rows]
+        print(f" {k:9s}: translation {min(t):.4f}-{max(t):.4f} m, rotation {min(r_):.2f}-{max(r_):.2f} deg")
+    cpu = [r["process_cpu_s"] for r in rows]
+    print(
+        f" CPU per run (whole process incl. imports): {min(cpu):.1f}-{max(cpu):.1f} s; filter loop only: "
+        f"{min(r['cpu_s_filter'] for r in rows):.1f}-{max(r['cpu_s_filter'] for r in rows):.1f} s; "
+        f"peak RSS {max(r['peak_rss_mb'] for r in rows):.0f} MB"
+    )
+
+    if not a.skip_other_logs:
+        intel = a.data / "reallab" / "intel" / "intel-corrected.log.gz"
+        s = _run(intel, 0, work / "intel")
+        with open_log(intel) as reader:
+            gt = reader.ground_truth()
+        assert gt is not None
+        intel_row: dict = {**s}
+        for name in ("trajectory", "trajectory_gmapping", "trajectory_smoothed"):
+            est = read_tum(work / "intel" / f"{name}.tum")
+            intel_row[name] = {
+                "ate": absolute_trajectory_error(est, gt).as_dict(),
+                "rpe": relative_pose_error(est, gt).as_dict(),
+            }
+        with open_log(intel) as reader:
+            odom = np.array([f.odom.as_array() for f in reader.frames()])
+        from mcnkit.types import Trajectory
+
+        intel_row["odometry_ate"] = absolute_trajectory_error(Trajectory(gt.stamps_ns, odom), gt).as_dict()
+        report["intel"] = intel_row
+        shutil.copy(work / "intel" / "map.png", a.results / "slam_intel.png")
+        t = intel_row["trajectory"]
+        print(
+            f"Intel lab: ATE rmse {t['ate']['rmse_m']:.3f} m (max {t['ate']['max_m']:.3f}), RPE "
+            f"{t['rpe']['translation_mean_m']:.3f} m / {t['rpe']['rotation_mean_deg']:.2f} deg; odometry ATE "
+            f"{intel_row['odometry_ate']['rmse_m']:.2f} m; CPU {s['process_cpu_s']:.1f} s, "
+            f"{s['filter_updates']} updates"
+        )
+
+        loop5 = a.data / "reallab" / "dpslam-loop5" / "loop5.log"
+        s = _run(loop5, 0, work / "loop5")
+        report["loop5"] = s
+        shutil.copy(work / "loop5" / "map.png", a.results / "slam_loop5.png")
+        print(
+            f"DP-SLAM loop5: {s['scans']} scans, {s['filter_updates']} updates, CPU {s['process_cpu_s']:.1f} s; "
+            f"map: {a.results / 'slam_loop5.png'}"
+        )
+
+    (a.results / "slam.json").write_text(json.dumps(report, indent=2) + "\n")
+    print(f"wrote {a.results / 'slam.json'} and maps slam_*.png")
+    shutil.rmtree(work, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

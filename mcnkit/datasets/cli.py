@@ -1,0 +1,223 @@
+"""``mcnkit data ...`` (install HouseExpo, build/cache pairs, draw example pairs) and ``mcnkit simulate``.
+
+Each ``add_*_parser`` adds a subparser whose ``func`` takes the parsed arguments and returns an exit code:
+0 on success, 2 with one line on stderr on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mcnkit.datasets.houseexpo import HOUSEEXPO_SHA256, default_data_dir, find_houseexpo, install_houseexpo
+from mcnkit.datasets.pairs import PairConfig, PairSet, load_or_build_houseexpo_pairs, pair_stats, procedural_pairs
+from mcnkit.io.errors import LogError
+
+__all__ = ["add_data_parser", "add_simulate_parser", "cmd_examples", "cmd_install", "cmd_pairs", "cmd_simulate"]
+
+EXIT_BAD_INPUT = 2
+
+
+def _fail(command: str, message: object) -> int:
+    print(f"mcnkit {command}: error: {message}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def _houseexpo_source(args: argparse.Namespace) -> Path | None:
+    return Path(args.houseexpo) if getattr(args, "houseexpo", None) else find_houseexpo()
+
+
+def cmd_install(args: argparse.Namespace) -> int:
+    """``mcnkit data install houseexpo --from PATH_OR_URL [--sha256 HEX] [--dest DIR]``."""
+    try:
+        target = install_houseexpo(args.source, args.dest, args.sha256)
+    except (OSError, ValueError) as exc:
+        return _fail("data install", exc)
+    print(f"installed {target}")
+    return 0
+
+
+def _stats_line(name: str, pairs: PairSet) -> dict[str, object]:
+    st = pair_stats(pairs)
+    return {
+        "split": name,
+        "n": st.n,
+        "free_fraction": round(st.free_fraction, 4),
+        "observed_share": round(st.observed_share, 4),
+        "pooled_observed_share": round(st.pooled_observed_share, 4),
+    }
+
+
+def cmd_pairs(args: argparse.Namespace) -> int:
+    """``mcnkit data pairs --out DIR``: build (or reuse the cached) pairs and print counts and statistics."""
+    t0 = time.perf_counter()
+    try:
+        if args.domain == "procedural":
+            splits = procedural_pairs(args.train, args.val, args.test, args.seed)
+            out = Path(args.out)
+            out.mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(
+                out / "procedural-pairs.npz",
+                **{
+                    f"{s}_{k}": getattr(getattr(splits, s), k)
+                    for s in ("train", "val", "test")
+                    for k in ("partial", "target")
+                },
+            )
+            rebuilt = True
+        else:
+            source = _houseexpo_source(args)
+            if source is None:
+                return _fail("data pairs", "HouseExpo not installed; run `mcnkit data install houseexpo --from ...`")
+            cfg = PairConfig(n_train=args.train, n_val=args.val, n_test=args.test, seed=args.seed)
+            splits, rebuilt = load_or_build_houseexpo_pairs(
+                source, args.out, cfg, args.train_list, args.test_list, progress=not args.no_progress
+            )
+    except (OSError, ValueError) as exc:
+        return _fail("data pairs", exc)
+    report = {
+        "domain": args.domain,
+        "rebuilt": rebuilt,
+        "seconds": round(time.perf_counter() - t0, 2),
+        "build_seconds": splits.manifest.get("build_seconds"),
+        "skipped": splits.manifest.get("skipped", 0),
+        "skip_reasons": splits.manifest.get("skip_reasons", {}),
+        "splits": [_stats_line(s, getattr(splits, s)) for s in ("train", "val", "test")],
+    }
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    """``mcnkit data examples --out FILE.png``: a grid of example pairs (m_t, mask, m_T) for both domains."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows: list[tuple[str, PairSet]] = []
+    try:
+        source = _houseexpo_source(args)
+        if source is not None:
+            cfg = PairConfig(n_train=0, n_val=0, n_test=args.n, seed=args.seed)
+            cache = args.cache or default_data_dir() / "cache" / "examples"
+            splits, _ = load_or_build_houseexpo_pairs(source, cache, cfg, progress=False)
+            rows.append(("HouseExpo (pseudo-SLAM)", splits.test))
+        else:
+            print("mcnkit data examples: HouseExpo not installed, drawing the procedural domain only", file=sys.stderr)
+        rows.append(("procedural (HOME'S masking)", procedural_pairs(0, 0, args.n, args.seed).test))
+    except (OSError, ValueError) as exc:
+        return _fail("data examples", exc)
+    n = args.n
+    fig, axes = plt.subplots(len(rows) * 3, n, figsize=(1.6 * n, 1.7 * 3 * len(rows)), squeeze=False)
+    for d, (title, pairs) in enumerate(rows):
+        for k in range(n):
+            images = (pairs.partial[k], pairs.partial_mask[k], pairs.target[k]) if k < len(pairs) else ()
+            for j, label in enumerate(("m_t", "mask", "m_T")):
+                ax = axes[3 * d + j, k]
+                ax.set_xticks([])
+                ax.set_yticks([])
+                if images:
+                    ax.imshow(images[j], origin="lower", cmap="gray_r", vmin=0.0, vmax=1.0, interpolation="nearest")
+                if k == 0:
+                    ax.set_ylabel(f"{label}\n{title.split()[0]}" if j == 0 else label, fontsize=8)
+        axes[3 * d, 0].set_title(title, fontsize=9, loc="left")
+    fig.suptitle("example pairs: m_t (partial), its unknown mask (white = known), m_T (target); black = occupied")
+    fig.tight_layout()
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    print(f"wrote {out}")
+    return 0
+
+
+def add_data_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Adds ``mcnkit data install|pairs|examples``."""
+    data = subparsers.add_parser("data", help="install datasets, build training pairs, draw example pairs")
+    sub = data.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
+
+    inst = sub.add_parser("install", help="install a dataset (HouseExpo) from a path or URL, checking its sha256")
+    inst.add_argument("dataset", choices=["houseexpo"])
+    inst.add_argument("--from", dest="source", required=True, help="json.tar.gz path, file:// or http(s):// URL")
+    inst.add_argument("--sha256", default=None, help=f"expected digest (default {HOUSEEXPO_SHA256[:12]}…; '' = skip)")
+    inst.add_argument("--dest", default=None, help="data directory (default: $MCNKIT_DATA or ./data)")
+    inst.set_defaults(func=cmd_install)
+
+    pairs = sub.add_parser("pairs", help="build (or reuse the cached) 64x64 (m_t, m_T) pairs")
+    pairs.add_argument("--out", required=True, help="cache directory")
+    pairs.add_argument("--domain", choices=["houseexpo", "procedural"], default="houseexpo")
+    pairs.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
+    pairs.add_argument("--train-list", help="official train id list (default: next to the archive)")
+    pairs.add_argument("--test-list", help="official test id list (default: next to the archive)")
+    pairs.add_argument("--train", type=int, default=5000)
+    pairs.add_argument("--val", type=int, default=200)
+    pairs.add_argument("--test", type=int, default=100)
+    pairs.add_argument("--seed", type=int, default=0)
+    pairs.add_argument("--no-progress", action="store_true", help="no progress bar")
+    pairs.set_defaults(func=cmd_pairs)
+
+    ex = sub.add_parser("examples", help="write a PNG grid of example pairs (m_t, mask, m_T) for both domains")
+    ex.add_argument("--out", required=True, help="PNG file")
+    ex.add_argument("--n", type=int, default=6, help="examples per domain")
+    ex.add_argument("--seed", type=int, default=0)
+    ex.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
+    ex.add_argument("--cache", help="pair cache directory for the HouseExpo examples (default: <data>/cache/examples)")
+    ex.set_defaults(func=cmd_examples)
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """``mcnkit simulate --map SPEC --out PATH``: simulate a robot on a plan and write the log."""
+    from mcnkit.sim import LidarConfig, SimConfig, plan_raster, simulate, write_sim_log
+
+    try:
+        lidar = LidarConfig(
+            n_beams=args.beams,
+            fov_deg=args.fov_deg,
+            range_max_m=args.range_max,
+            noise_std_m=args.range_noise,
+            dropout_prob=args.dropout,
+        )
+        cfg = SimConfig(resolution_m=args.resolution, max_duration_s=args.duration, lidar=lidar)
+        if args.odometry_noise != 1.0:
+            odo = cfg.odometry
+            scaled = {f.name: getattr(odo, f.name) * args.odometry_noise for f in dataclasses.fields(odo)}
+            cfg = dataclasses.replace(cfg, odometry=dataclasses.replace(odo, **scaled))
+        raster = plan_raster(args.map, args.resolution, args.houseexpo)
+        result = simulate(raster, cfg, args.seed)
+        path = write_sim_log(result, args.out, args.format, overwrite=args.overwrite)
+    except (OSError, ValueError, LogError) as exc:
+        return _fail("simulate", exc)
+    gt = result.ground_truth.poses
+    odo_end = result.odometry.poses[-1]
+    print(
+        f"wrote {path}: {len(result.frames)} scans, {np.hypot(*np.diff(gt[:, :2], axis=0).T).sum():.1f} m driven, "
+        f"odometry drift at the end {np.hypot(*(gt[-1, :2] - odo_end[:2])):.2f} m"
+    )
+    return 0
+
+
+def add_simulate_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Adds ``mcnkit simulate``."""
+    p = subparsers.add_parser("simulate", help="simulate a robot with a lidar on a floor plan and write a log")
+    p.add_argument("--map", required=True, help="houseexpo:ID or procedural:SEED")
+    p.add_argument("--out", required=True, help="FILE.bag, FILE.mcap or a directory (rosbag2)")
+    p.add_argument("--format", choices=["ros1", "ros2-sqlite3", "ros2-mcap", "mcap"], help="default: from --out")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--beams", type=int, default=360)
+    p.add_argument("--fov-deg", type=float, default=360.0)
+    p.add_argument("--range-max", type=float, default=8.0, help="metres")
+    p.add_argument("--range-noise", type=float, default=0.01, help="range noise std (m)")
+    p.add_argument("--dropout", type=float, default=0.0, help="probability that a beam returns nothing")
+    p.add_argument("--odometry-noise", type=float, default=1.0, help="scale of the odometry noise (0 = perfect)")
+    p.add_argument("--duration", type=float, default=600.0, help="at most this many seconds")
+    p.add_argument("--resolution", type=float, default=0.05, help="ground-truth raster resolution (m)")
+    p.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
+    p.add_argument("--overwrite", action="store_true")
+    p.set_defaults(func=cmd_simulate)

@@ -1,0 +1,120 @@
+"""The paper's map encodings and map resizing.
+
+* probabilities → ternary image: occupied 1.0 if p > 0.5, unknown 0.5 if p = 0.5, free 0.0 if p < 0.5;
+* ternary image → unknown mask: 1.0 where unknown, else 0.0;
+* (image, mask) is the 2-channel network input; the network's 2-channel output goes back to ternary by
+  "unknown if mask' ≥ 0.5, else occupied if image' ≥ 0.5, else free" (PAPER-NOTES.md, "Map encoding").
+
+Resizing (:func:`resize_ternary`) keeps thin walls: when shrinking, each output cell covers a block of
+input cells and takes the *highest-priority* label in its block, occupied > free > unknown.  A one-cell
+wall therefore survives any reduction, and a block in which the robot saw anything free stays free (what
+was observed is never thrown away).  When enlarging, each output cell copies the input cell under its
+centre (nearest neighbour).  Non-square maps are padded first (:func:`pad_to_square`) so the aspect
+ratio is kept.
+
+Example:
+    >>> img = np.array([[0.0, 0.5], [1.0, 0.5]], np.float32)
+    >>> ternary_to_network(img)[1].tolist()
+    [[0.0, 1.0], [0.0, 1.0]]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN
+
+__all__ = [
+    "log_odds_to_ternary",
+    "network_to_ternary",
+    "pad_to_square",
+    "probabilities_to_ternary",
+    "resize_ternary",
+    "ternary_to_network",
+    "unknown_mask",
+]
+
+F32 = NDArray[np.float32]
+
+# Priority ranks used when several input cells fall into one output cell.
+_RANK_OF_UNKNOWN, _RANK_OF_FREE, _RANK_OF_OCCUPIED = 0, 1, 2
+_VALUE_OF_RANK = np.array([UNKNOWN, FREE, OCCUPIED], dtype=np.float32)
+
+
+def probabilities_to_ternary(p: NDArray[np.floating]) -> F32:
+    """The paper's rule: 1.0 where p > 0.5, 0.5 where p == 0.5, 0.0 where p < 0.5."""
+    p = np.asarray(p)
+    out = np.full(p.shape, UNKNOWN, dtype=np.float32)
+    out[p > 0.5] = OCCUPIED
+    out[p < 0.5] = FREE
+    return out
+
+
+def log_odds_to_ternary(log_odds: NDArray[np.floating]) -> F32:
+    """Same rule on log-odds (p > 0.5 ⇔ l > 0), without computing probabilities."""
+    return probabilities_to_ternary(0.5 + 0.5 * np.sign(np.asarray(log_odds)))
+
+
+def unknown_mask(image: NDArray[np.floating]) -> F32:
+    """1.0 where the ternary image is unknown (0.5), else 0.0."""
+    return (np.asarray(image) == UNKNOWN).astype(np.float32)
+
+
+def ternary_to_network(image: NDArray[np.floating]) -> F32:
+    """Stacks ``(..., H, W)`` ternary images into network input ``(..., 2, H, W)`` = (image, mask)."""
+    image = np.asarray(image, dtype=np.float32)
+    return np.stack([image, unknown_mask(image)], axis=-3)
+
+
+def network_to_ternary(output: NDArray[np.floating]) -> F32:
+    """Converts network output ``(..., 2, H, W)`` = (image', mask') to ternary images ``(..., H, W)``."""
+    output = np.asarray(output)
+    if output.ndim < 3 or output.shape[-3] != 2:
+        raise ValueError(f"network output must have 2 channels in axis -3, got shape {output.shape}")
+    image, mask = output[..., 0, :, :], output[..., 1, :, :]
+    out = np.where(image >= 0.5, OCCUPIED, FREE).astype(np.float32)
+    out[mask >= 0.5] = UNKNOWN
+    return out
+
+
+def pad_to_square(image: NDArray[np.floating], fill: float = UNKNOWN) -> F32:
+    """Pads an (H, W) image with ``fill`` on the short side, centred, to a square."""
+    image = np.asarray(image, dtype=np.float32)
+    h, w = image.shape
+    n = max(h, w)
+    top, left = (n - h) // 2, (n - w) // 2
+    out = np.full((n, n), fill, dtype=np.float32)
+    out[top : top + h, left : left + w] = image
+    return out
+
+
+def _ranks(image: F32) -> NDArray[np.int8]:
+    ranks = np.full(image.shape, _RANK_OF_UNKNOWN, dtype=np.int8)
+    ranks[image == FREE] = _RANK_OF_FREE
+    ranks[image == OCCUPIED] = _RANK_OF_OCCUPIED
+    return ranks
+
+
+def _resize_axis(ranks: NDArray[np.int8], size: int, axis: int) -> NDArray[np.int8]:
+    n = ranks.shape[axis]
+    if n == size:
+        return ranks
+    if n > size:  # shrink: max-rank over blocks [floor(k n / size), floor((k+1) n / size))
+        starts = (np.arange(size) * n) // size
+        return np.maximum.reduceat(ranks, starts, axis=axis)
+    centres = ((np.arange(size) + 0.5) * n / size).astype(np.int64)  # enlarge: nearest neighbour
+    return np.take(ranks, np.minimum(centres, n - 1), axis=axis)
+
+
+def resize_ternary(image: NDArray[np.floating], size: int | tuple[int, int] = 64) -> F32:
+    """Resizes a ternary (H, W) image to ``size`` keeping thin walls (priority occupied > free > unknown).
+
+    Pad non-square maps with :func:`pad_to_square` first if the aspect ratio must be kept.
+    """
+    image = np.asarray(image, dtype=np.float32)
+    if image.ndim != 2:
+        raise ValueError(f"resize_ternary takes one (H, W) image, got shape {image.shape}")
+    out_h, out_w = (size, size) if isinstance(size, int) else size
+    ranks = _resize_axis(_resize_axis(_ranks(image), out_h, 0), out_w, 1)
+    return _VALUE_OF_RANK[ranks]

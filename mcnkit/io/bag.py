@@ -1,0 +1,304 @@
+"""A :class:`~mcnkit.io.base.LogReader` over any raw message source (ROS1 bag, ROS2 bag folder, MCAP).
+
+Detection (each overridable in :func:`mcnkit.io.open_log`):
+
+* scan topic: the ``sensor_msgs/LaserScan`` topic named ``/scan``, else the one with the most messages;
+* odometry: the ``nav_msgs/Odometry`` topic named ``/odom``, else the busiest Odometry topic whose name does
+  not look like ground truth; else the ``odom → base`` transform on ``/tf`` (``tf:<odom>-><base>``);
+* the laser's mount: the chain of ``/tf_static`` transforms from the base frame to the scan's ``frame_id``.
+
+Frames: scans and odometry are read together in record order; each scan's odometry is interpolated at the
+scan's header stamp between the two odometry poses around it.  Scans whose stamp went backwards, that have
+a different beam count, or that lie more than ``max_odom_gap_s`` outside the odometry stream are skipped
+with a warning that counts them.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import re
+from collections import deque
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mcnkit.geometry import compose, quaternion_to_yaw
+from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
+from mcnkit.io.decode import MessageDecoder
+from mcnkit.io.errors import LogError, as_log_error, warn_skipped
+from mcnkit.io.sources import Connection, RawSource
+from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
+
+__all__ = ["BagLog"]
+
+SCAN_TYPE = "sensor_msgs/msg/LaserScan"
+ODOM_TYPE = "nav_msgs/msg/Odometry"
+POSE_TYPES = (ODOM_TYPE, "geometry_msgs/msg/PoseStamped")
+TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
+MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
+_GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
+
+
+def _pick(conns: list[TopicInfo], preferred: str) -> str | None:
+    if not conns:
+        return None
+    names = [c.name for c in conns]
+    return preferred if preferred in names else max(conns, key=lambda c: c.count).name
+
+
+class BagLog(LogReader):
+    """A ROS bag or MCAP log; see the module docstring for what is detected and how frames are built."""
+
+    def __init__(
+        self, path: Path, fmt: str, source: RawSource, *, scan_topic: str | None = None,
+        odom: str | None = None, max_odom_gap_s: float = 0.25,
+    ) -> None:
+        self.path, self.format, self._src = path, fmt, source
+        self._decoder = MessageDecoder()
+        for c in source.connections:
+            self._decoder.register(c.encoding, c.msgtype, c.definition, c.definition_format)
+        self._max_gap_ns = int(max_odom_gap_s * 1e9)
+        topics: dict[tuple[str, str], int] = {}
+        for c in source.connections:
+            topics[(c.topic, c.msgtype)] = topics.get((c.topic, c.msgtype), 0) + c.count
+        self._topics = [TopicInfo(n, t, k) for (n, t), k in topics.items()]
+        scans = [t for t in self._topics if t.msgtype == SCAN_TYPE]
+        if scan_topic is not None and scan_topic not in {t.name for t in scans}:
+            raise LogError(path, f"no LaserScan topic {scan_topic!r} (LaserScan topics: {[t.name for t in scans]})")
+        self._scan_topic = scan_topic or _pick(scans, "/scan")
+        self._odom_source = self._detect_odom(odom)
+        self._spec: LidarSpec | None = None
+
+    # -- detection ---------------------------------------------------------------------------------------
+    def _detect_odom(self, override: str | None) -> str | None:
+        odoms = [t for t in self._topics if t.msgtype == ODOM_TYPE]
+        if override is not None:
+            if override.startswith("tf:") or override in {t.name for t in odoms}:
+                return override
+            raise LogError(self.path, f"no Odometry topic {override!r} (Odometry topics: {[t.name for t in odoms]})")
+        plain = [t for t in odoms if not _GT_NAME.search(t.name)]
+        if plain:
+            return _pick(plain, "/odom")
+        for tf_topic in (t.name for t in self._topics if t.msgtype in TF_TYPES and t.name != "/tf_static"):
+            for _, msg in self._take(tf_topic, 200):
+                for tr in msg.transforms:
+                    parent, child = tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/")
+                    if "odom" in parent and "base" in child:
+                        return f"tf:{parent}->{child}"
+        return None
+
+    def _take(self, topic: str, n: int) -> Iterator[tuple[int, Any]]:
+        for i, item in enumerate(self.messages(topic)):
+            if i >= n:
+                return
+            yield item
+
+    def _static_transforms(self) -> dict[tuple[str, str], np.ndarray]:
+        out: dict[tuple[str, str], np.ndarray] = {}
+        for topic in [t.name for t in self._topics if t.msgtype in TF_TYPES and t.name == "/tf_static"]:
+            for _, msg in self.messages(topic):
+                for tr in msg.transforms:
+                    q, p = tr.transform.rotation, tr.transform.translation
+                    yaw = float(quaternion_to_yaw(np.array([q.x, q.y, q.z, q.w])))
+                    out[(tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))] = np.array([p.x, p.y, yaw])
+        return out
+
+    def _base_to_laser(self, laser_frame: str) -> Pose2D:
+        base = self._odom_source.split("->")[1] if self._odom_source and "->" in self._odom_source else None
+        static = self._static_transforms()
+        if not static or not laser_frame:
+            return Pose2D()
+        if base is None:  # odometry topic: its child frame is the base
+            base = next((p for (p, c) in static if c == laser_frame), None)
+            if base is None:
+                return Pose2D()
+        children: dict[str, list[tuple[str, np.ndarray]]] = {}
+        for (p, c), tf in static.items():
+            children.setdefault(p, []).append((c, tf))
+        stack: list[tuple[str, np.ndarray]] = [(base, np.zeros(3))]
+        seen = {base}
+        while stack:
+            frame, pose = stack.pop()
+            if frame == laser_frame:
+                return Pose2D.from_array(pose)
+            for child, tf in children.get(frame, []):
+                if child not in seen:
+                    seen.add(child)
+                    stack.append((child, compose(pose, tf)))
+        return Pose2D()
+
+    # -- LogReader ----------------------------------------------------------------------------------------
+    @property
+    def topics(self) -> list[TopicInfo]:
+        """Every topic with its type and count."""
+        return list(self._topics)
+
+    @property
+    def scan_topic(self) -> str:
+        """The LaserScan topic ('' if the log has none)."""
+        return self._scan_topic or ""
+
+    @property
+    def odom_source(self) -> str:
+        """The odometry source ('' if none was found)."""
+        return self._odom_source or ""
+
+    def _require_scan(self) -> str:
+        if not self._scan_topic:
+            raise LogError(self.path, f"no sensor_msgs/LaserScan topic (topics: {[t.name for t in self._topics]})")
+        return self._scan_topic
+
+    @property
+    def lidar_spec(self) -> LidarSpec:
+        """From the first scan; the mount from /tf_static."""
+        with as_log_error(self.path, "damaged first scan"):
+            return self._lidar_spec()
+
+    def _lidar_spec(self) -> LidarSpec:
+        if self._spec is None:
+            topic = self._require_scan()
+            for conn, _, raw in self._src.messages([topic]):
+                s = self._decoder.scan(raw, conn.encoding)
+                rmin, rmax = float(s.range_min_m), float(s.range_max_m)
+                if not (np.isfinite(rmax) and rmax > max(rmin, 0.0)):
+                    rmin, rmax = 0.0, float(np.nanmax(np.where(np.isfinite(s.ranges_m), s.ranges_m, 0.0))) + 1.0
+                self._spec = LidarSpec(float(s.angle_min_rad), float(s.angle_increment_rad), len(s.ranges_m),
+                                       max(rmin, 0.0), rmax, self._base_to_laser(s.frame_id.lstrip("/")))
+                break
+            else:
+                raise LogError(self.path, f"LaserScan topic {topic} has no messages")
+        return self._spec
+
+    def time_range_ns(self) -> tuple[int, int]:
+        """Record times of the first and last message."""
+        with as_log_error(self.path, "damaged data while finding the time range"):
+            return self._src.time_range_ns()
+
+    def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
+        """Decoded messages of ``topic``."""
+        with as_log_error(self.path, f"cannot decode a message on {topic}"):
+            for conn, t, raw in self._src.messages([topic]):
+                yield t, self._decoder.decode(raw, conn.msgtype, conn.encoding)
+
+    def _odom_samples(self, conn: Connection, t: int, raw: bytes | memoryview) -> list[tuple[int, float, float, float]]:
+        if conn.msgtype == ODOM_TYPE:
+            o = self._decoder.odometry(raw, conn.encoding)
+            return [(o.stamp_ns or t, o.x_m, o.y_m, o.yaw_rad)]
+        parent, child = self.odom_source[3:].split("->")
+        out = []
+        for tr in self._decoder.decode(raw, conn.msgtype, conn.encoding).transforms:
+            if tr.header.frame_id.lstrip("/") == parent and tr.child_frame_id.lstrip("/") == child:
+                q, p = tr.transform.rotation, tr.transform.translation
+                stamp = int(tr.header.stamp.sec) * 1_000_000_000 + int(tr.header.stamp.nanosec)
+                out.append((stamp or t, p.x, p.y, float(quaternion_to_yaw(np.array([q.x, q.y, q.z, q.w])))))
+        return out
+
+    def frames(self) -> Iterator[Frame]:
+        """Time-ordered frames (see the module docstring)."""
+        with as_log_error(self.path, "damaged data while reading frames"):
+            yield from self._frames()
+
+    def _frames(self) -> Iterator[Frame]:
+        self.check_frames()
+        scan_topic = self._require_scan()
+        spec = self.lidar_spec
+        odom_topic = "/tf" if self.odom_source.startswith("tf:") else self.odom_source
+        skipped = {"stamp went backwards": 0, "different beam count": 0, "no odometry near its stamp": 0}
+        odom_t: deque[int] = deque(maxlen=256)
+        odom_p: deque[tuple[float, float, float]] = deque(maxlen=256)
+        pending: deque[tuple[int, np.ndarray]] = deque()
+        last_scan = -(2**63)
+
+        def emit(stamp: int, ranges: np.ndarray) -> Frame | None:
+            n = len(odom_t)
+            if n >= 2 and odom_t[-2] <= stamp <= odom_t[-1]:  # the usual case: the last two samples bracket it
+                i = n - 1
+            else:
+                i = bisect.bisect_left(odom_t, stamp)
+            if i == 0:
+                if odom_t[0] - stamp > self._max_gap_ns:
+                    return None
+                pose = odom_p[0]
+            elif i == n:
+                if stamp - odom_t[-1] > self._max_gap_ns:
+                    return None
+                pose = odom_p[-1]
+            else:
+                (x0, y0, a0), (x1, y1, a1) = odom_p[i - 1], odom_p[i]
+                u = (stamp - odom_t[i - 1]) / (odom_t[i] - odom_t[i - 1])
+                da = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi
+                a = (a0 + u * da + math.pi) % (2 * math.pi) - math.pi
+                pose = (x0 + u * (x1 - x0), y0 + u * (y1 - y0), a)
+            return Frame(stamp, Scan(ranges, spec), Pose2D(*pose))
+
+        for conn, t, raw in self._src.messages([scan_topic, odom_topic]):
+            if conn.topic == scan_topic:
+                s = self._decoder.scan(raw, conn.encoding)
+                stamp = s.stamp_ns or t
+                if len(s.ranges_m) != spec.n_beams:
+                    skipped["different beam count"] += 1
+                elif stamp < last_scan:
+                    skipped["stamp went backwards"] += 1
+                else:
+                    last_scan = stamp
+                    pending.append((stamp, s.ranges_m))
+            else:
+                for sample in self._odom_samples(conn, t, raw):
+                    if odom_t and sample[0] <= odom_t[-1]:
+                        continue  # odometry stamps must increase; a repeated or older sample adds nothing
+                    odom_t.append(sample[0])
+                    odom_p.append(sample[1:])
+            while pending and odom_t and odom_t[-1] >= pending[0][0]:
+                frame = emit(*pending.popleft())
+                if frame is None:
+                    skipped["no odometry near its stamp"] += 1
+                else:
+                    yield frame
+        while pending:
+            stamp, ranges = pending.popleft()
+            frame = emit(stamp, ranges) if odom_t else None
+            if frame is None:
+                skipped["no odometry near its stamp"] += 1
+            else:
+                yield frame
+        if any(skipped.values()):
+            warn_skipped(self.path, "skipped scans: " + ", ".join(f"{n} ({why})" for why, n in skipped.items() if n))
+
+    def ground_truth(self) -> Trajectory | None:
+        """Poses from a topic whose name says ground truth (Odometry or PoseStamped)."""
+        topic = next((t.name for t in self._topics if t.msgtype in POSE_TYPES and _GT_NAME.search(t.name)), None)
+        if topic is None:
+            return None
+        stamps, poses = [], []
+        for t, m in self.messages(topic):
+            pose = m.pose.pose if hasattr(m.pose, "pose") else m.pose
+            q = pose.orientation
+            stamps.append(int(m.header.stamp.sec) * 1_000_000_000 + int(m.header.stamp.nanosec) or t)
+            poses.append((pose.position.x, pose.position.y, float(quaternion_to_yaw(np.array([q.x, q.y, q.z, q.w])))))
+        if not stamps:
+            return None
+        return Trajectory(np.asarray(stamps, dtype=np.int64), np.asarray(poses, dtype=np.float64))
+
+    def ground_truth_map(self) -> GroundTruthMap | None:
+        """The last message of the OccupancyGrid topic (a ground-truth-named one first)."""
+        maps = [t for t in self._topics if t.msgtype == MAP_TYPE and t.count]
+        if not maps:
+            return None
+        topic = next((t.name for t in maps if _GT_NAME.search(t.name)), maps[0].name)
+        last = None
+        for _, m in self.messages(topic):
+            last = m
+        if last is None:
+            return None
+        info = last.info
+        data = np.asarray(last.data, dtype=np.int8).reshape(int(info.height), int(info.width))
+        stamp = int(last.header.stamp.sec) * 1_000_000_000 + int(last.header.stamp.nanosec)
+        return GroundTruthMap(stamp, round(float(info.resolution), 6), float(info.origin.position.x),  # float32 field
+                              float(info.origin.position.y), data)
+
+    def close(self) -> None:
+        """Closes the underlying files."""
+        self._src.close()

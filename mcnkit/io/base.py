@@ -1,0 +1,105 @@
+"""What every log reader offers: topics, the detected scan and odometry sources, and time-ordered frames."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+
+from mcnkit.io.errors import LogError
+from mcnkit.types import Frame, LidarSpec, Trajectory
+
+__all__ = ["GroundTruthMap", "LogReader", "TopicInfo"]
+
+
+@dataclass(frozen=True)
+class TopicInfo:
+    """A topic in a log: name, ROS message type (``pkg/msg/Type``) and how many messages it holds."""
+
+    name: str
+    msgtype: str
+    count: int
+
+
+@dataclass(frozen=True)
+class GroundTruthMap:
+    """A ``nav_msgs/OccupancyGrid`` as logged: ROS cell values -1 unknown, 0..100 occupancy, row 0 at the origin."""
+
+    stamp_ns: int
+    resolution_m: float
+    origin_x_m: float
+    origin_y_m: float
+    data: np.ndarray  # (height, width) int8
+
+
+class LogReader(ABC):
+    """A robot log opened by :func:`mcnkit.io.open_log`.
+
+    Use it as a context manager.  ``frames()`` yields :class:`~mcnkit.types.Frame` objects in stamp order,
+    with the odometry pose of the base interpolated at each scan's stamp.
+    """
+
+    path: Path
+    format: str
+
+    @property
+    @abstractmethod
+    def topics(self) -> list[TopicInfo]:
+        """Every topic with its type and message count."""
+
+    @property
+    @abstractmethod
+    def scan_topic(self) -> str:
+        """The LaserScan topic frames are built from."""
+
+    @property
+    @abstractmethod
+    def odom_source(self) -> str:
+        """Where odometry comes from: an Odometry topic, or ``tf:<odom frame>-><base frame>``."""
+
+    @property
+    @abstractmethod
+    def lidar_spec(self) -> LidarSpec:
+        """The scanner of the scan topic (from its first message), mount offset included."""
+
+    @abstractmethod
+    def frames(self) -> Iterator[Frame]:
+        """Time-ordered frames: scan, stamp and odometry at that stamp."""
+
+    @abstractmethod
+    def time_range_ns(self) -> tuple[int, int]:
+        """First and last message time in the log (ns)."""
+
+    def check_frames(self) -> None:
+        """Raises :class:`~mcnkit.io.errors.LogError` now if ``frames()`` cannot start (no laser, no odometry)."""
+        self.lidar_spec  # noqa: B018 - raises when there is no usable scan topic
+        if not self.odom_source:
+            raise LogError(self.path, "no odometry: no nav_msgs/Odometry topic and no odom->base transform on /tf")
+
+    def ground_truth(self) -> Trajectory | None:
+        """The ground-truth trajectory, when the log has one."""
+        return None
+
+    def ground_truth_map(self) -> GroundTruthMap | None:
+        """The last ground-truth occupancy grid, when the log has one."""
+        return None
+
+    def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
+        """Decoded messages of any topic as ``(record time ns, message)`` pairs."""
+        raise NotImplementedError(f"{type(self).__name__} does not expose raw messages")
+
+    def close(self) -> None:  # noqa: B027 - optional hook
+        """Releases open files."""
+
+    def __enter__(self) -> LogReader:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()

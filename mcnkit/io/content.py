@@ -1,0 +1,34 @@
+"""What a writer puts in a log: frames plus the optional ground truth (trajectory and map)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from mcnkit.io.base import GroundTruthMap
+from mcnkit.types import Frame, Trajectory
+
+__all__ = ["FORMATS", "LogContent"]
+
+# Output formats of :func:`mcnkit.io.write_log` and ``mcnkit convert --format``.
+FORMATS = ("ros1", "ros2-sqlite3", "ros2-mcap", "mcap")
+
+
+@dataclass(frozen=True)
+class LogContent:
+    """Everything :func:`mcnkit.io.write_log` writes.
+
+    * ``frames``: one LaserScan on ``scan_topic`` (header stamp = ``stamp_ns``, frame ``laser``), one
+      nav_msgs/Odometry on ``odom_topic`` and one ``odom → base_link`` transform on ``/tf`` per frame;
+      the scanner's mount (``spec.base_to_laser``) once on ``/tf_static``.
+    * ``ground_truth``: nav_msgs/Odometry poses of the base in the ``map`` frame on ``ground_truth_topic``.
+    * ``ground_truth_map``: one nav_msgs/OccupancyGrid on ``map_topic``.
+    """
+
+    frames: Sequence[Frame]
+    ground_truth: Trajectory | None = None
+    ground_truth_map: GroundTruthMap | None = None
+    scan_topic: str = "/scan"
+    odom_topic: str | None = "/odom"  # None: odometry only as /tf (odom -> base_link)
+    ground_truth_topic: str = "/ground_truth"
+    map_topic: str = "/map_gt"

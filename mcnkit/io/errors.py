@@ -1,0 +1,54 @@
+"""The one error type every reader and writer raises, and the warning for data skipped on the way."""
+
+from __future__ import annotations
+
+import sqlite3
+import struct
+import warnings
+import zlib
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import zstandard
+from rosbags.serde import SerdeError
+from rosbags.typesys import TypesysError
+
+__all__ = ["DECODE_ERRORS", "LogError", "LogWarning", "as_log_error", "warn_skipped"]
+
+# What parsers of damaged bytes raise (struct, codecs, decompressors, rosbags' deserialisers).
+DECODE_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError, KeyError, IndexError, TypeError, AttributeError, AssertionError, EOFError, OSError, RuntimeError,
+    OverflowError, MemoryError, RecursionError, struct.error, zlib.error, zstandard.ZstdError, SerdeError,
+    TypesysError, sqlite3.Error,
+)
+
+
+class LogError(Exception):
+    """A log that cannot be read or written; ``str()`` is one line naming the file and the problem."""
+
+    def __init__(self, path: Path | str, problem: str) -> None:
+        self.path = Path(path)
+        self.problem = problem.strip().splitlines()[0] if problem.strip() else "unreadable"
+        super().__init__(f"{self.path}: {self.problem}")
+
+
+class LogWarning(UserWarning):
+    """Some of a log was skipped (a truncated tail, scans whose stamps went backwards, ...)."""
+
+
+def warn_skipped(path: Path | str, what: str) -> None:
+    """Warns, in one line naming the file, that part of it was skipped."""
+    warnings.warn(f"{path}: {what}", LogWarning, stacklevel=3)
+
+
+@contextmanager
+def as_log_error(path: Path | str, doing: str) -> Iterator[None]:
+    """Turns whatever a parser raises on damaged bytes into a one-line :class:`LogError`."""
+    try:
+        yield
+    except LogError:
+        raise
+    except DECODE_ERRORS as err:
+        detail = str(err).strip().splitlines()[0][:200] if str(err).strip() else ""
+        raise LogError(path, f"{doing}: {type(err).__name__}{': ' + detail if detail else ''}") from None

@@ -1,0 +1,116 @@
+"""``open_log(path)``: recognise a robot log by its content and open it.
+
+| what                                        | recognised by                                   | ``format``        |
+|---------------------------------------------|-------------------------------------------------|-------------------|
+| ROS1 bag                                    | ``#ROSBAG V2.0`` magic                          | ``ros1``          |
+| ROS2 bag folder, sqlite3 / mcap storage     | ``metadata.yaml`` (or ``.db3``/``.mcap`` files) | ``ros2-sqlite3``, ``ros2-mcap`` |
+| MCAP file, ROS2 (cdr) or ROS1 profile       | MCAP magic                                      | ``mcap-ros2``, ``mcap-ros1`` |
+| zstd-, bz2- or gzip-compressed file of these | the compressor's magic, then the above         | as above          |
+| CARMEN ``.clf``/``.log`` (gzip'd or not)    | a CARMEN keyword on the first line              | ``carmen``, ``carmen-corrected`` |
+| DP-SLAM log                                 | ``Odometry``/``Laser`` lines                    | ``dpslam``        |
+"""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+from pathlib import Path
+
+import zstandard
+from ruamel.yaml import YAML
+
+from mcnkit.io.bag import BagLog
+from mcnkit.io.base import LogReader
+from mcnkit.io.carmen import CarmenLog, is_carmen
+from mcnkit.io.errors import LogError, as_log_error
+from mcnkit.io.sources import McapSource, RawSource, Ros1BagSource, SqliteSource
+
+__all__ = ["open_log"]
+
+_ROS1_MAGIC = b"#ROSBAG V2.0"
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+_ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+_BZ2_MAGIC = b"BZh"
+_GZIP_MAGIC = b"\x1f\x8b"
+
+
+def open_log(path: str | Path, *, scan_topic: str | None = None, odom: str | None = None) -> LogReader:
+    """Opens any supported robot log.
+
+    Args:
+        path: a file or a ROS2 bag folder.
+        scan_topic: the LaserScan topic to build frames from (default: detected).
+        odom: an Odometry topic, or ``tf:<odom frame>-><base frame>`` (default: detected).
+
+    Raises:
+        LogError: one line naming the file and the problem (missing, empty, not a log, damaged beyond use).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise LogError(path, "no such file or folder")
+    with as_log_error(path, "cannot read"):
+        if path.is_dir():
+            fmt, source = _open_ros2_folder(path)
+            return BagLog(path, fmt, source, scan_topic=scan_topic, odom=odom)
+        fmt, maybe_source = _open_file(path)
+        if maybe_source is None:
+            return CarmenLog(path)
+        return BagLog(path, fmt, maybe_source, scan_topic=scan_topic, odom=odom)
+
+
+def _open_file(path: Path) -> tuple[str, RawSource | None]:
+    with open(path, "rb") as f:
+        head = f.read(16)
+    if not head:
+        raise LogError(path, "empty file")
+    if head.startswith(_ROS1_MAGIC):
+        return "ros1", Ros1BagSource(path)
+    if head.startswith(_MCAP_MAGIC):
+        return _mcap_format(McapSource(path, [path]))
+    if head.startswith((_ZSTD_MAGIC, _BZ2_MAGIC)) or (head.startswith(_GZIP_MAGIC) and not is_carmen(path)):
+        data = _decompress(path, head)
+        if data.startswith(_MCAP_MAGIC):
+            return _mcap_format(McapSource(path, [path], data=data))
+        raise LogError(path, "a compressed file that holds no MCAP (compressed ROS1 bags: use bag chunk compression)")
+    if is_carmen(path):
+        return "carmen", None
+    raise LogError(path, "not a robot log: no ROS1 bag, MCAP, CARMEN or DP-SLAM signature")
+
+
+def _decompress(path: Path, head: bytes) -> bytes:
+    raw = path.read_bytes()
+    if head.startswith(_ZSTD_MAGIC):
+        return zstandard.ZstdDecompressor().decompressobj().decompress(raw)
+    if head.startswith(_BZ2_MAGIC):
+        return bz2.decompress(raw)
+    return gzip.decompress(raw)
+
+
+def _mcap_format(source: McapSource) -> tuple[str, RawSource]:
+    encodings = {c.encoding for c in source.connections}
+    return ("mcap-ros1" if "ros1" in encodings else "mcap-ros2"), source
+
+
+def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
+    meta = path / "metadata.yaml"
+    if meta.exists():
+        try:
+            info = YAML(typ="safe").load(meta.read_text())["rosbag2_bagfile_information"]
+            storage = str(info.get("storage_identifier", ""))
+            files = [path / Path(p).name for p in info.get("relative_file_paths", [])]
+        except Exception as err:  # noqa: BLE001 - ruamel raises many error types
+            raise LogError(meta, f"not a rosbag2 metadata file ({type(err).__name__})") from None
+        if missing := [f.name for f in files if not f.exists()]:
+            raise LogError(path, f"bag files listed in metadata.yaml are missing: {missing}")
+        if info.get("compression_mode"):
+            raise LogError(path, f"rosbag2 {info['compression_mode']}-level compression is not supported")
+    else:
+        files = sorted(path.glob("*.db3")) or sorted(path.glob("*.mcap"))
+        storage = "sqlite3" if files and files[0].suffix == ".db3" else "mcap"
+    if not files:
+        raise LogError(path, "a folder that is not a ROS2 bag (no metadata.yaml, no .db3 or .mcap files)")
+    if storage == "sqlite3":
+        return "ros2-sqlite3", SqliteSource(path, files)
+    if storage == "mcap":
+        return "ros2-mcap", McapSource(path, files)
+    raise LogError(path, f"unsupported rosbag2 storage {storage!r}")

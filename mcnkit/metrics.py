@@ -1,0 +1,216 @@
+"""Trajectory metrics: Kümmerle et al. (2009) relations error, ATE and RPE, and TUM trajectory files.
+
+**Relations** (Kümmerle et al., "On measuring the accuracy of SLAM algorithms", 2009): each ground-truth
+relation gives the relative motion ``δ*`` of the robot between the scans stamped ``t1`` and ``t2``.  The
+estimate's relative motion is ``δ = ⊖x(t1) ⊕ x(t2)``; the error transform is ``e = ⊖δ* ⊕ δ``; the
+translation error is ``‖(e_x, e_y)‖`` (metres) and the rotation error ``|e_θ|`` (degrees).  Reported: mean
+and standard deviation of these absolute errors over all relations.
+
+**Timestamp matching**: a relation stamp is matched to the trajectory pose with the *nearest* stamp,
+provided it lies within ``tolerance_s`` (default 5 ms; scans are ~0.2 s apart and the relation stamps
+are the scans' own stamps, so each one matches exactly one scan).  Relations with an end that has no
+pose within the tolerance are skipped and counted in ``n_skipped``.
+
+**ATE**: reference poses are matched to estimate poses by nearest stamp (same rule); the estimate is
+rigidly aligned to the reference (2-D rotation + translation, least squares); ATE is the RMSE of the
+position differences.  **RPE**: over consecutive matched pairs, the relations error with ``δ*`` taken
+from the reference.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.geometry import compose, inverse, quaternion_to_yaw, relative, wrap_angle, yaw_to_quaternion
+from mcnkit.types import Trajectory
+
+__all__ = [
+    "AteResult",
+    "Relations",
+    "RelationsError",
+    "absolute_trajectory_error",
+    "match_stamps",
+    "read_relations",
+    "read_tum",
+    "relations_error",
+    "relative_pose_error",
+    "write_tum",
+]
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+
+
+def _seconds_to_ns(text: str) -> int:
+    sign = -1 if text.startswith("-") else 1
+    whole, _, frac = text.lstrip("+-").partition(".")
+    return sign * (int(whole or 0) * 1_000_000_000 + int((frac + "000000000")[:9] or 0))
+
+
+def _ns_to_seconds(stamp_ns: int) -> str:
+    sign = "-" if stamp_ns < 0 else ""
+    s, ns = divmod(abs(int(stamp_ns)), 1_000_000_000)
+    return f"{sign}{s}.{ns:09d}"
+
+
+def read_tum(path: Path) -> Trajectory:
+    """Reads a TUM file (``t x y z qx qy qz qw`` per line, t in seconds; ``#`` comments) as a planar trajectory."""
+    stamps, poses = [], []
+    for line in Path(path).read_text().splitlines():
+        tok = line.split()
+        if not tok or tok[0].startswith("#"):
+            continue
+        if len(tok) != 8:
+            raise ValueError(f"{path}: a TUM line has 8 fields, got {len(tok)}: {line!r}")
+        q = np.array([float(v) for v in tok[4:8]])
+        stamps.append(_seconds_to_ns(tok[0]))
+        poses.append((float(tok[1]), float(tok[2]), float(quaternion_to_yaw(q))))
+    return Trajectory(np.asarray(stamps, dtype=np.int64), np.asarray(poses, dtype=np.float64).reshape(-1, 3))
+
+
+def write_tum(path: Path, trajectory: Trajectory) -> None:
+    """Writes a planar trajectory as TUM lines (z = 0, t with nanosecond digits)."""
+    q = yaw_to_quaternion(trajectory.poses[:, 2])
+    lines = [
+        f"{_ns_to_seconds(t)} {p[0]:.6f} {p[1]:.6f} 0 {qq[0]:.9f} {qq[1]:.9f} {qq[2]:.9f} {qq[3]:.9f}"
+        for t, p, qq in zip(trajectory.stamps_ns, trajectory.poses, q, strict=True)
+    ]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+@dataclass(frozen=True)
+class Relations:
+    """Ground-truth relations: stamps ``t1_ns``, ``t2_ns`` (K,) and relative motions ``delta`` (K, 3)."""
+
+    t1_ns: I64
+    t2_ns: I64
+    delta: F64
+
+
+def read_relations(path: Path) -> Relations:
+    """Reads a Kümmerle relations file: ``t1 t2 x y z roll pitch yaw`` per line (seconds, metres, radians)."""
+    t1, t2, d = [], [], []
+    for line in Path(path).read_text().splitlines():
+        tok = line.split()
+        if not tok or tok[0].startswith("#"):
+            continue
+        if len(tok) != 8:
+            raise ValueError(f"{path}: a relation line has 8 fields, got {len(tok)}: {line!r}")
+        t1.append(_seconds_to_ns(tok[0]))
+        t2.append(_seconds_to_ns(tok[1]))
+        d.append((float(tok[2]), float(tok[3]), float(tok[7])))
+    return Relations(np.asarray(t1, np.int64), np.asarray(t2, np.int64), np.asarray(d, np.float64).reshape(-1, 3))
+
+
+def match_stamps(stamps_ns: I64, query_ns: I64, tolerance_s: float) -> I64:
+    """Index of the nearest stamp in sorted ``stamps_ns`` for each query, or -1 when none is within tolerance."""
+    stamps = np.asarray(stamps_ns, dtype=np.int64)
+    q = np.asarray(query_ns, dtype=np.int64)
+    if len(stamps) == 0:
+        return np.full(len(q), -1, dtype=np.int64)
+    hi = np.clip(np.searchsorted(stamps, q), 1, max(len(stamps) - 1, 1))
+    lo = np.maximum(hi - 1, 0)
+    nearest = np.where(np.abs(stamps[hi] - q) < np.abs(stamps[lo] - q), hi, lo)
+    ok = np.abs(stamps[nearest] - q) <= round(tolerance_s * 1e9)
+    return np.where(ok, nearest, -1).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class RelationsError:
+    """Absolute relation errors: per relation (K',) and their mean ± std; ``n_skipped`` relations unmatched."""
+
+    translation_m: F64
+    rotation_deg: F64
+    n_skipped: int
+
+    @property
+    def translation_mean_m(self) -> float:
+        """Mean translation error."""
+        return float(np.mean(self.translation_m)) if len(self.translation_m) else float("nan")
+
+    @property
+    def translation_std_m(self) -> float:
+        """Standard deviation of the translation error."""
+        return float(np.std(self.translation_m)) if len(self.translation_m) else float("nan")
+
+    @property
+    def rotation_mean_deg(self) -> float:
+        """Mean rotation error."""
+        return float(np.mean(self.rotation_deg)) if len(self.rotation_deg) else float("nan")
+
+    @property
+    def rotation_std_deg(self) -> float:
+        """Standard deviation of the rotation error."""
+        return float(np.std(self.rotation_deg)) if len(self.rotation_deg) else float("nan")
+
+    def as_dict(self) -> dict[str, float | int]:
+        """Summary numbers for JSON output."""
+        return {
+            "translation_mean_m": self.translation_mean_m,
+            "translation_std_m": self.translation_std_m,
+            "rotation_mean_deg": self.rotation_mean_deg,
+            "rotation_std_deg": self.rotation_std_deg,
+            "n_relations": len(self.translation_m),
+            "n_skipped": self.n_skipped,
+        }
+
+
+def _relation_errors(est_delta: F64, ref_delta: F64) -> tuple[F64, F64]:
+    e = compose(inverse(ref_delta), est_delta)
+    return np.hypot(e[:, 0], e[:, 1]), np.degrees(np.abs(wrap_angle(e[:, 2])))
+
+
+def relations_error(trajectory: Trajectory, relations: Relations, tolerance_s: float = 0.005) -> RelationsError:
+    """The Kümmerle relations metric of ``trajectory`` (stamps matched as described in the module doc)."""
+    i = match_stamps(trajectory.stamps_ns, relations.t1_ns, tolerance_s)
+    j = match_stamps(trajectory.stamps_ns, relations.t2_ns, tolerance_s)
+    ok = (i >= 0) & (j >= 0)
+    est = relative(trajectory.poses[i[ok]], trajectory.poses[j[ok]])
+    t, r = _relation_errors(est, relations.delta[ok])
+    return RelationsError(t, r, int(np.count_nonzero(~ok)))
+
+
+@dataclass(frozen=True)
+class AteResult:
+    """Absolute trajectory error after rigid 2-D alignment: RMSE, mean, max (m) over ``n_matched`` poses."""
+
+    rmse_m: float
+    mean_m: float
+    max_m: float
+    n_matched: int
+
+    def as_dict(self) -> dict[str, float | int]:
+        """Summary numbers for JSON output."""
+        return {"rmse_m": self.rmse_m, "mean_m": self.mean_m, "max_m": self.max_m, "n_matched": self.n_matched}
+
+
+def _matched(estimate: Trajectory, reference: Trajectory, tolerance_s: float) -> tuple[F64, F64]:
+    k = match_stamps(estimate.stamps_ns, reference.stamps_ns, tolerance_s)
+    ok = k >= 0
+    if np.count_nonzero(ok) < 2:
+        raise ValueError("fewer than 2 reference poses have an estimate within the stamp tolerance")
+    return estimate.poses[k[ok]], reference.poses[ok]
+
+
+def absolute_trajectory_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005) -> AteResult:
+    """ATE of ``estimate`` against ``reference`` after the least-squares rigid alignment of positions."""
+    est, ref = _matched(estimate, reference, tolerance_s)
+    a, b = est[:, :2], ref[:, :2]
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    h = (a - ca).T @ (b - cb)
+    angle = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])  # rotation maximising alignment (2-D Kabsch)
+    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    aligned = (a - ca) @ rot.T + cb
+    err = np.linalg.norm(aligned - b, axis=1)
+    return AteResult(float(np.sqrt(np.mean(err**2))), float(err.mean()), float(err.max()), len(err))
+
+
+def relative_pose_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005) -> RelationsError:
+    """RPE: the relations error over consecutive matched reference poses."""
+    est, ref = _matched(estimate, reference, tolerance_s)
+    t, r = _relation_errors(relative(est[:-1], est[1:]), relative(ref[:-1], ref[1:]))
+    return RelationsError(t, r, 0)

@@ -1,0 +1,279 @@
+"""A Rao-Blackwellized particle filter with gmapping's proposal: :class:`FastSlam` and its :class:`SlamStep`.
+
+Per scan every particle moves by the odometry increment with sampled noise.  Once the robot has
+travelled ``linear_update_m`` or turned ``angular_update_rad`` (summed increments since the last update),
+a filter update runs: scan-match every particle (:mod:`mcnkit.slam.scanmatch`), add the match
+log-likelihood to its log-weight, normalise with gmapping's flattening, resample (low variance) when
+Neff < ``resample_threshold`` · N, and write the scan's end points into each particle's map.
+
+The reported trajectory is the *best* particle's (highest log-likelihood summed over its ancestry): its
+corrected poses at the filter updates, and between updates the last corrected pose plus the odometry
+change.  The output map is rebuilt from that trajectory and the update scans by ray casting.
+
+Example:
+    >>> slam = FastSlam(SlamConfig(n_particles=10), np.random.default_rng(0))  # doctest: +SKIP
+    >>> for frame in log.frames():                                              # doctest: +SKIP
+    ...     step = slam.step(frame)
+    >>> grid = slam.best_map()                                                  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.geometry import compose, relative
+from mcnkit.grid import log_odds_to_ternary
+from mcnkit.slam.config import SlamConfig
+from mcnkit.slam.maps import TiledHitMaps, ray_cast_counts
+from mcnkit.slam.motion import MotionNoise, sample_motion
+from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
+from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map
+from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
+
+__all__ = ["FastSlam", "SlamStep", "counts_to_grid"]
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SlamStep:
+    """What one :meth:`FastSlam.step` did: particle states after the step and the filter's bookkeeping."""
+
+    index: int
+    """Scan number (0-based)."""
+    stamp_ns: int
+    poses: F64
+    """Particle base poses (N, 3) ``[x_m, y_m, yaw_rad]`` after this step."""
+    weights: F64
+    """Normalised (flattened) weights (N,) after this step."""
+    neff: float
+    """Effective sample size computed at the last filter update (before any resampling)."""
+    updated: bool
+    """True when this scan triggered a filter update (match, weigh, resample?, map write)."""
+    resampled: bool
+    best_index: int
+    """The particle with the highest accumulated log-likelihood."""
+    best_pose: F64
+    match_scores: F64 | None = None
+    """Scan-match score per particle (N,) when ``updated`` (None on the first scan and between updates)."""
+
+
+def counts_to_grid(
+    spec: GridSpec, hits: NDArray[np.integer], passes: NDArray[np.integer], occ_thresh: float
+) -> OccupancyGrid:
+    """Hit/pass counts → log-odds grid whose sign is the map_server decision at ``occ_thresh``.
+
+    ``log_odds = logit(p) - logit(occ_thresh)`` with ``p = hits / (hits + passes)`` clipped to
+    [0.001, 0.999]: positive (occupied) iff ``p > occ_thresh``, exactly 0 (unknown) where nothing was seen.
+    """
+    total = hits + passes
+    seen = total > 0
+    p = np.clip(hits[seen] / total[seen], 1e-3, 1 - 1e-3).astype(np.float32)  # only seen cells: less memory
+    lo = np.log(p / (1 - p)) - np.float32(math.log(occ_thresh / (1 - occ_thresh)))
+    lo[lo == 0] = -1e-3
+    log_odds = np.zeros(spec.shape, np.float32)
+    log_odds[seen] = lo
+    return OccupancyGrid(spec, log_odds)
+
+
+class FastSlam:
+    """Grid FastSLAM with a scan-matched proposal; feed it frames in time order with :meth:`step`."""
+
+    def __init__(self, config: SlamConfig, rng: np.random.Generator, lidar: LidarSpec | None = None) -> None:
+        self.config = config
+        self.rng = rng
+        self._noise = MotionNoise(config.srr, config.srt, config.str_, config.stt)
+        self._lidar = lidar
+        n = config.n_particles
+        self.maps = TiledHitMaps(n, config.resolution_m, config.tile_cells)
+        self.poses = np.zeros((n, 3))
+        self.log_weights = np.zeros(n)  # since the last resampling
+        self.log_weight_sums = np.zeros(n)  # over the whole ancestry: picks the best particle
+        self.neff = float(n)
+        self.n_scans = 0
+        self.n_updates = 0
+        self.n_resamples = 0
+        self._last_odom = np.zeros(3)
+        self._linear_m = 0.0
+        self._angular_rad = 0.0
+        self._history = np.zeros((64, n, 3))  # (K, N, 3) corrected poses at updates, per lineage
+        self._update_odom: list[F64] = []
+        self._update_ranges: list[NDArray[np.float32]] = []
+        self._scan_stamps: list[int] = []
+        self._scan_odom: list[F64] = []
+        self._scan_update: list[int] = []  # index of the last update at or before each scan
+        self._scan_ranges: list[NDArray[np.float32]] = []  # every scan, for trajectory(mode="matched")
+
+    @property
+    def best_index(self) -> int:
+        """Particle with the highest log-likelihood summed over its ancestry."""
+        return int(np.argmax(self.log_weight_sums))
+
+    def _ranges(self, lidar: LidarSpec) -> tuple[float, float]:
+        max_range = self.config.max_range_m if self.config.max_range_m is not None else lidar.range_max_m - 0.01
+        usable = self.config.max_usable_range_m if self.config.max_usable_range_m is not None else max_range
+        return max_range, min(usable, max_range)
+
+    def step(self, frame: Frame) -> SlamStep:
+        """Processes one frame: motion, and a filter update when the robot moved far enough."""
+        cfg = self.config
+        if self._lidar is None:
+            self._lidar = frame.scan.spec
+        odom = frame.odom.as_array()
+        first = self.n_scans == 0
+        if first:
+            self.poses[:] = odom
+        else:
+            self.poses = sample_motion(self.poses, self._last_odom, odom, self._noise, self.rng)
+            move = relative(self._last_odom, odom)
+            self._linear_m += math.hypot(move[0], move[1])
+            self._angular_rad += abs(move[2])
+        self._last_odom = odom
+        updated = first or self._linear_m >= cfg.linear_update_m or self._angular_rad >= cfg.angular_update_rad
+        resampled = False
+        scores = None
+        if updated:
+            resampled, scores = self._update(frame, first)
+        self._scan_stamps.append(frame.stamp_ns)
+        self._scan_odom.append(odom)
+        self._scan_update.append(self.n_updates - 1)
+        self._scan_ranges.append(np.asarray(frame.scan.ranges_m, dtype=np.float32))
+        self.n_scans += 1
+        best = self.best_index
+        return SlamStep(
+            self.n_scans - 1,
+            frame.stamp_ns,
+            self.poses.copy(),
+            normalize_log_weights(self.log_weights, cfg.gain),
+            self.neff,
+            updated,
+            resampled,
+            best,
+            self.poses[best].copy(),
+            scores,
+        )
+
+    def _update(self, frame: Frame, first: bool) -> tuple[bool, F64 | None]:
+        cfg = self.config
+        lidar = frame.scan.spec
+        max_range, usable = self._ranges(lidar)
+        end_b, back_b = beam_points(
+            frame.scan.ranges_m,
+            lidar.angles_rad,
+            lidar.base_to_laser.as_array(),
+            max_range,
+            usable,
+            math.sqrt(2.0) * cfg.resolution_m,
+            cfg.lskip,
+        )
+        scores = None
+        if not first:
+            match = match_particles(self.maps, self.poses, end_b, back_b, cfg)
+            self.poses = match.poses
+            self.log_weights += match.log_likelihoods
+            self.log_weight_sums += match.log_likelihoods
+            scores = match.scores
+        weights = normalize_log_weights(self.log_weights, cfg.gain)
+        self.neff = effective_sample_size(weights)
+        k = self.n_updates
+        if k == len(self._history):
+            self._history = np.concatenate([self._history, np.zeros_like(self._history)])
+        self._history[k] = self.poses
+        resampled = False
+        if not first and self.neff < cfg.resample_threshold * cfg.n_particles:
+            idx = low_variance_resample(weights, float(self.rng.random()))
+            self.poses = self.poses[idx]
+            self.log_weights = np.zeros(cfg.n_particles)
+            self.log_weight_sums = self.log_weight_sums[idx]
+            self._history[: k + 1] = self._history[: k + 1, idx]
+            self.maps.resample(idx)
+            self.n_resamples += 1
+            resampled = True
+        if not cfg.lskip:
+            hits_b = end_b
+        else:
+            hits_b, _ = beam_points(
+                frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range, usable, 0.0
+            )
+        hits_w = compose(self.poses[:, None, :], np.concatenate([hits_b, np.zeros((len(hits_b), 1))], axis=1))
+        self.maps.integrate(hits_w[..., 0], hits_w[..., 1])  # (N, M) end points of every particle
+        self._update_odom.append(self._last_odom.copy())
+        self._update_ranges.append(np.asarray(frame.scan.ranges_m, dtype=np.float32).copy())
+        self._linear_m = 0.0
+        self._angular_rad = 0.0
+        self.n_updates += 1
+        return resampled, scores
+
+    def update_poses(self, particle: int | None = None) -> F64:
+        """Corrected poses (K, 3) at the K filter updates along a particle's ancestry (default: the best)."""
+        p = self.best_index if particle is None else particle
+        return self._history[: self.n_updates, p].copy()
+
+    def trajectory(self, particle: int | None = None, mode: str = "gmapping") -> Trajectory:
+        """Pose at every scan so far along a particle's ancestry (default: the best particle).
+
+        * ``"gmapping"`` (gmapping's convention): the last corrected update pose plus the odometry change since;
+        * ``"smoothed"`` (offline): between two updates, blends that forward estimate with the next corrected
+          pose minus the odometry still to come, in proportion to the motion (metres + radians) already made
+          in the interval, so each correction is spread over its interval instead of jumping;
+        * ``"matched"`` (offline): the smoothed pose of every scan hill-climbed against the particle's final
+          map (the update scans included), as gmapping matches at updates, without touching weights or maps.
+        """
+        if mode not in ("gmapping", "smoothed", "matched"):
+            raise ValueError(f"mode must be 'gmapping', 'smoothed' or 'matched', got {mode!r}")
+        upd = self.update_poses(particle)
+        k = np.asarray(self._scan_update, dtype=np.int64)
+        odom = np.asarray(self._scan_odom)
+        upd_odom = np.asarray(self._update_odom)
+        poses = compose(upd[k], relative(upd_odom[k], odom))
+        if mode != "gmapping" and len(upd) > 1:
+            steps = np.zeros(len(odom))
+            d = relative(odom[:-1], odom[1:])
+            steps[1:] = np.hypot(d[:, 0], d[:, 1]) + np.abs(d[:, 2])
+            progress = np.cumsum(steps)  # motion so far along the log
+            first_scan = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])  # scan index of each update
+            inner = k < len(upd) - 1  # scans with a next update
+            nxt = np.minimum(k + 1, len(upd) - 1)
+            span = progress[first_scan[nxt]] - progress[first_scan[k]]
+            alpha = np.where(span > 0, (progress - progress[first_scan[k]]) / np.maximum(span, 1e-12), 0.0)
+            backward = compose(upd[nxt], relative(upd_odom[nxt], odom))
+            diff = backward - poses
+            diff[:, 2] = (diff[:, 2] + np.pi) % (2 * np.pi) - np.pi
+            poses = np.where(inner[:, None], poses + alpha[:, None] * diff, poses)
+            poses[:, 2] = (poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
+        if mode == "matched" and self._lidar is not None:
+            poses = self._match_scans(self.best_index if particle is None else particle, poses)
+        return Trajectory(np.asarray(self._scan_stamps, dtype=np.int64), poses)
+
+    def _match_scans(self, particle: int, poses: F64) -> F64:
+        lidar = self._lidar
+        assert lidar is not None
+        max_range, usable = self._ranges(lidar)
+        back_m = math.sqrt(2.0) * self.config.resolution_m
+        laser = lidar.base_to_laser.as_array()
+        scans = [
+            beam_points(r, lidar.angles_rad, laser, max_range, usable, back_m, self.config.lskip)
+            for r in self._scan_ranges
+        ]
+        return match_scans_to_map(self.maps, particle, poses, scans, self.config)
+
+    def best_map(self, particle: int | None = None) -> OccupancyGrid:
+        """The output map: update scans ray-cast from a particle's corrected poses (default: the best)."""
+        if self._lidar is None or not self.n_updates:
+            raise RuntimeError("no scan processed yet")
+        lidar = self._lidar
+        max_range, usable = self._ranges(lidar)
+        laser = compose(self.update_poses(particle), lidar.base_to_laser.as_array())
+        spec, hits, passes = ray_cast_counts(
+            laser, np.stack(self._update_ranges), lidar.angles_rad, max_range, usable, self.config.resolution_m
+        )
+        return counts_to_grid(spec, hits, passes, self.config.occ_thresh)
+
+    def best_ternary(self, particle: int | None = None) -> TernaryMap:
+        """:meth:`best_map` in the paper's ternary encoding (occupied above ``occ_thresh``)."""
+        grid = self.best_map(particle)
+        return TernaryMap(log_odds_to_ternary(grid.log_odds), grid.spec)

@@ -1,0 +1,96 @@
+"""Pair building and the cache manifest."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mcnkit.datasets.pairs import PairConfig, load_or_build_houseexpo_pairs, pair_stats, procedural_pairs
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN
+
+
+def _cfg(n_train: int = 3, seed: int = 0, size: int = 64) -> PairConfig:
+    return PairConfig(n_train=n_train, n_val=1, n_test=2, seed=seed, size=size)
+
+
+def test_build_counts_and_skips(tiny_houseexpo: Path, tmp_path: Path) -> None:
+    splits, rebuilt = load_or_build_houseexpo_pairs(tiny_houseexpo, tmp_path / "cache", _cfg(), progress=False)
+    assert rebuilt
+    assert (len(splits.train), len(splits.val), len(splits.test)) == (3, 1, 2)
+    assert set(splits.test.ids) == {"good6", "good7"}
+    assert not set(splits.train.ids) & set(splits.val.ids)
+    assert splits.train.partial.shape == (3, 64, 64) and splits.train.partial.dtype == np.float32
+    assert set(np.unique(splits.train.partial)) <= {FREE, UNKNOWN, OCCUPIED}
+    assert set(np.unique(splits.train.target)) <= {FREE, OCCUPIED}
+    np.testing.assert_array_equal(splits.train.partial_mask, splits.train.partial == UNKNOWN)
+    # Whatever m_t knows as free is free in m_T; m_t observes a part of the room only.
+    st = pair_stats(splits.train)
+    assert 0.0 < st.observed_share < 1.0 and 0.3 < st.free_fraction <= 1.0
+
+
+def test_skip_reasons_recorded(tiny_houseexpo: Path, tmp_path: Path) -> None:
+    cfg = PairConfig(n_train=6, n_val=2, n_test=3)  # asks for more than exists: takes what is valid
+    splits, _ = load_or_build_houseexpo_pairs(tiny_houseexpo, tmp_path / "c", cfg, progress=False)
+    assert len(splits.train) + len(splits.val) == 6 and len(splits.test) == 2
+    reasons = splits.manifest["skip_reasons"]
+    assert reasons == {"malformed json": 1, "self-intersecting outline": 1, "unknown id": 2}
+
+
+def test_cache_reused_and_invalidated(tiny_houseexpo: Path, tmp_path: Path, archive_tools: tuple[Any, Any]) -> None:
+    square_json, write_archive = archive_tools
+    cache = tmp_path / "cache"
+    first, rebuilt = load_or_build_houseexpo_pairs(tiny_houseexpo, cache, _cfg(), progress=False)
+    assert rebuilt
+    manifest = json.loads((cache / "houseexpo-pairs.manifest.json").read_text())
+    assert manifest["key"]["seed"] == 0 and len(manifest["key"]["source_sha256"]) == 64
+    again, rebuilt = load_or_build_houseexpo_pairs(tiny_houseexpo, cache, _cfg(), progress=False)
+    assert not rebuilt
+    np.testing.assert_array_equal(first.train.partial, again.train.partial)
+    assert first.train.ids == again.train.ids
+    # A new seed, a new config or a changed source each rebuild.
+    _, rebuilt = load_or_build_houseexpo_pairs(tiny_houseexpo, cache, _cfg(seed=1), progress=False)
+    assert rebuilt
+    _, rebuilt = load_or_build_houseexpo_pairs(tiny_houseexpo, cache, _cfg(seed=1, size=32), progress=False)
+    assert rebuilt
+    src2 = tmp_path / "v2"
+    src2.mkdir()
+    shutil.copy(tiny_houseexpo.parent / "map_id_train.txt", src2)
+    shutil.copy(tiny_houseexpo.parent / "map_id_test.txt", src2)
+    members = {f"good{i}.json": square_json(f"good{i}", 2.0 + i) for i in range(8)}
+    write_archive(src2 / "json.tar.gz", members)
+    changed, rebuilt = load_or_build_houseexpo_pairs(src2 / "json.tar.gz", cache, _cfg(seed=1, size=32), progress=False)
+    assert rebuilt and changed.manifest["key"]["source_sha256"] != manifest["key"]["source_sha256"]
+    # A corrupted cache file is rebuilt, not trusted.
+    (cache / "houseexpo-pairs.npz").write_bytes(b"garbage")
+    _, rebuilt = load_or_build_houseexpo_pairs(src2 / "json.tar.gz", cache, _cfg(seed=1, size=32), progress=False)
+    assert rebuilt
+
+
+def test_pairs_do_not_depend_on_other_pairs(tiny_houseexpo: Path, tmp_path: Path) -> None:
+    a, _ = load_or_build_houseexpo_pairs(tiny_houseexpo, tmp_path / "a", _cfg(), progress=False)
+    b, _ = load_or_build_houseexpo_pairs(tiny_houseexpo, tmp_path / "b", _cfg(n_train=5), progress=False)
+    for pid, img in zip(a.test.ids, a.test.partial, strict=True):
+        np.testing.assert_array_equal(img, b.test.partial[b.test.ids.index(pid)])
+
+
+def test_procedural_pairs() -> None:
+    splits = procedural_pairs(4, 2, 2, seed=3)
+    again = procedural_pairs(4, 2, 2, seed=3)
+    np.testing.assert_array_equal(splits.train.partial, again.train.partial)
+    assert splits.train.ids[0] == "procedural:0" and splits.test.ids[0] == "procedural:2000000"
+    masked = splits.train.partial_mask.mean(axis=(1, 2))
+    assert np.all(masked >= 0.1) and np.all(masked <= 0.55)
+    known = splits.train.partial != UNKNOWN
+    np.testing.assert_array_equal(splits.train.partial[known], splits.train.target[known])
+
+
+def test_real_pairs_small(shared_data: Path, tmp_path: Path) -> None:
+    archive = shared_data / "houseexpo" / "json.tar.gz"
+    splits, _ = load_or_build_houseexpo_pairs(archive, tmp_path, PairConfig(100, 10, 20), progress=False)
+    st = pair_stats(splits.train)
+    assert (len(splits.train), len(splits.val), len(splits.test)) == (100, 10, 20)
+    assert 0.45 < st.free_fraction < 0.65 and 0.03 < st.observed_share < 0.1

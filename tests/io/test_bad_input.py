@@ -1,0 +1,125 @@
+"""Bad input: a clear one-line LogError naming the file, or a warning saying what was skipped."""
+
+from __future__ import annotations
+
+import gzip
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag1 import Writer
+
+from mcnkit.io import LogContent, LogError, LogWarning, open_log, write_log
+from mcnkit.io.decode import MessageDecoder
+from mcnkit.types import Frame
+from tests.conftest import make_frames
+
+
+def test_a_missing_path(tmp_path: Path) -> None:
+    with pytest.raises(LogError, match=r"nope\.bag: no such file or folder"):
+        open_log(tmp_path / "nope.bag")
+
+
+def test_a_folder_that_is_not_a_bag(tmp_path: Path) -> None:
+    (tmp_path / "notes.txt").write_text("hello")
+    with pytest.raises(LogError, match="a folder that is not a ROS2 bag"):
+        open_log(tmp_path)
+
+
+def test_an_empty_file_and_a_text_file(tmp_path: Path) -> None:
+    (tmp_path / "empty.bag").write_bytes(b"")
+    (tmp_path / "readme.log").write_text("this is not a robot log\n")
+    with pytest.raises(LogError, match=r"empty\.bag: empty file"):
+        open_log(tmp_path / "empty.bag")
+    with pytest.raises(LogError, match=r"readme\.log: not a robot log"):
+        open_log(tmp_path / "readme.log")
+
+
+def test_a_log_without_a_laser_topic(shared_data: Path) -> None:
+    with open_log(shared_data / "fixtures/rosbag_js/example.bag") as log:
+        assert log.scan_topic == ""
+        with pytest.raises(LogError, match="no sensor_msgs/LaserScan topic"):
+            next(iter(log.frames()))
+    with pytest.raises(LogError, match="no LaserScan topic '/laser'"):
+        open_log(shared_data / "fixtures/rosbag_js/example.bag", scan_topic="/laser")
+
+
+def test_nan_inf_and_out_of_range_ranges_are_no_return(frames: list[Frame]) -> None:
+    scan = frames[0].scan
+    r = scan.ranges_m.copy()
+    r[:4] = [np.nan, np.inf, 0.05, 10.5]  # range interval is [0.1, 10]
+    from mcnkit.types import Scan
+
+    assert Scan(r, scan.spec).valid[:4].tolist() == [False, False, False, False]
+    assert Scan(r, scan.spec).valid[4:].all()
+
+
+def _bag_with_scan_stamps(path: Path, frames: list[Frame], stamps_ns: list[int]) -> None:
+    """Record order as given, header stamps as given (a sensor clock that jumps back)."""
+    from mcnkit.io.writers import _Msgs
+
+    ts = MessageDecoder().typestore("ros1")
+    b = _Msgs(ts, ros1=True)
+    with Writer(path) as w:
+        cs = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=ts)
+        co = w.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=ts)
+        for f, stamp in zip(frames, stamps_ns, strict=True):
+            w.write(co, f.stamp_ns, ts.serialize_ros1(b.odometry(f.stamp_ns, f.odom, "odom"), "nav_msgs/msg/Odometry"))
+            moved = Frame(stamp, f.scan, f.odom)
+            w.write(cs, f.stamp_ns, ts.serialize_ros1(b.scan(moved), "sensor_msgs/msg/LaserScan"))
+
+
+def test_scan_stamps_going_backwards_are_skipped_with_a_count(tmp_path: Path, frames: list[Frame]) -> None:
+    stamps = [f.stamp_ns for f in frames]
+    stamps[10] = stamps[5]  # one scan stamped half a second in the past
+    _bag_with_scan_stamps(tmp_path / "back.bag", frames, stamps)
+    with open_log(tmp_path / "back.bag") as log, pytest.warns(LogWarning, match=r"1 \(stamp went backwards\)"):
+        back = list(log.frames())
+    assert len(back) == len(frames) - 1
+    assert [f.stamp_ns for f in back] == sorted(f.stamp_ns for f in back)
+
+
+def test_carmen_lines_out_of_time_order_are_sorted_with_a_warning(tmp_path: Path) -> None:
+    ranges = " ".join(["1.0"] * 181)
+    lines = [f"FLASER 181 {ranges} 0 0 0 {x} 0 0 {t} host {t}" for x, t in [(0, "1.0"), (1, "3.0"), (2, "2.0")]]
+    lines.insert(1, "FLASER 181 1.0 garbage")
+    path = tmp_path / "run.clf.gz"
+    path.write_bytes(gzip.compress("\n".join(lines).encode()))
+    with pytest.warns(LogWarning) as record:
+        log = open_log(path)
+    messages = " ".join(str(w.message) for w in record)
+    assert "malformed FLASER line skipped" in messages and "sorted by stamp" in messages
+    assert [f.odom.x_m for f in log.frames()] == [0.0, 2.0, 1.0]
+
+
+def test_a_bag_cut_in_the_middle_reads_its_whole_chunks(tmp_path: Path) -> None:
+    frames = make_frames(n=1500, beams=360)  # several LZ4 chunks: the ones before the cut survive
+    path = write_log(tmp_path / "full.bag", LogContent(frames), "ros1")
+    data = path.read_bytes()
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.warns(LogWarning, match=r"cut\.bag: .*record by record"):
+        log = open_log(cut)
+    with log:
+        assert log.topics  # connections before the cut are known
+        got = list(log.frames())
+    assert 0 < len(got) < len(frames)
+    assert all(np.array_equal(a.scan.ranges_m, b.scan.ranges_m, equal_nan=True) for a, b in zip(got, frames, strict=False))
+
+
+def test_an_mcap_cut_in_the_middle_reads_its_whole_messages(tmp_path: Path, frames: list[Frame]) -> None:
+    path = write_log(tmp_path / "full.mcap", LogContent(frames), "mcap")
+    data = path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.8)])
+    with pytest.warns(LogWarning, match=r"cut\.mcap: no usable summary"):
+        log = open_log(cut)
+    with log:
+        assert sum(1 for _ in log.frames()) <= len(frames)
+
+
+def test_a_rosbag2_folder_with_a_missing_file(tmp_path: Path, frames: list[Frame]) -> None:
+    path = write_log(tmp_path / "bag2", LogContent(frames), "ros2-sqlite3")
+    (path / "bag2.db3").unlink()
+    with pytest.raises(LogError, match="missing"):
+        open_log(path)

@@ -1,0 +1,76 @@
+"""``mcnkit slam`` and ``mcnkit eval`` on a tiny generated CARMEN log and on bad input."""
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mcnkit.slam.cli import add_eval_parser, add_slam_parser
+
+
+def _run(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser("mcnkit")
+    sub = parser.add_subparsers(required=True)
+    add_slam_parser(sub)
+    add_eval_parser(sub)
+    args = parser.parse_args(argv)
+    return int(args.func(args))
+
+
+def _write_clf(path: Path, n: int = 30) -> None:
+    """A robot driving +x at 0.1 m per scan in a 4 m wide corridor with a door frame every metre."""
+    lines = []
+    angles = np.radians(np.linspace(-90, 90, 181))
+    for k in range(n):
+        x = 0.1 * k
+        side = np.where(np.sin(angles) > 0, 2.0, -2.0)
+        with np.errstate(divide="ignore"):
+            r = np.abs(side / np.sin(angles))
+        r = np.minimum(r, 8.0 - x / np.maximum(np.cos(angles), 1e-3))  # end wall at x = 8
+        r = np.minimum(r, 81.91)
+        ranges = " ".join(f"{v:.3f}" for v in r)
+        t = 1000.0 + 0.2 * k
+        lines.append(f"FLASER 181 {ranges} {x:.3f} 0.0 0.0 {x:.3f} 0.0 0.0 {t:.6f} host {t:.6f}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_slam_writes_outputs_and_eval_reads_them(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "corridor.clf"
+    _write_clf(log)
+    out = tmp_path / "out"
+    assert _run(["slam", str(log), "--particles", "4", "--out", str(out), "--no-progress"]) == 0
+    for name in (
+        "trajectory.tum",
+        "trajectory_gmapping.tum",
+        "trajectory_smoothed.tum",
+        "map.pgm",
+        "map.yaml",
+        "map.png",
+        "summary.json",
+    ):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scans"] == 30 and summary["filter_updates"] >= 2
+    assert {"cpu_s", "wall_s", "peak_rss_mb", "final_neff"} <= summary.keys()
+    assert (out / "map.pgm").read_bytes().startswith(b"P5\n")
+    assert "resolution: 0.05" in (out / "map.yaml").read_text()
+    rel = tmp_path / "r.relations"
+    rel.write_text("1000.0 1001.0 0.5 0.0 0 0 0 0\n")  # scans 0 and 5: 0.5 m apart
+    capsys.readouterr()
+    assert _run(["eval", "relations", str(out / "trajectory_gmapping.tum"), str(rel), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["n_relations"] == 1 and result["translation_mean_m"] < 0.05
+    assert _run(["eval", "ate", str(out / "trajectory.tum"), str(out / "trajectory.tum"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["ate"]["rmse_m"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_unreadable_log_is_one_line_and_exit_code_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "garbage.clf"
+    bad.write_text("this is not a log\n")
+    assert _run(["slam", str(bad), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err and "\n" not in err
+    assert _run(["slam", str(tmp_path / "missing.clf"), "--out", str(tmp_path / "o")]) == 2
+    assert _run(["eval", "relations", str(tmp_path / "missing.tum"), str(bad)]) == 2

@@ -1,0 +1,126 @@
+"""The filter on a generated world: a room with a box, pillars and a wall stub, a lidar ray-cast against
+its wall segments, and odometry whose heading drifts 0.03 rad per metre.  The filter must stay near the
+true path where odometry alone ends metres away."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from mcnkit.geometry import compose, relative
+from mcnkit.slam import FastSlam, SlamConfig
+from mcnkit.types import Frame, LidarSpec, Pose2D, Scan
+
+LIDAR = LidarSpec(-np.pi / 2, np.pi / 180, 181, 0.05, 10.0)
+
+
+def _box(x0: float, y0: float, x1: float, y1: float) -> list[tuple[float, float, float, float]]:
+    return [(x0, y0, x1, y0), (x1, y0, x1, y1), (x1, y1, x0, y1), (x0, y1, x0, y0)]
+
+
+WALLS = np.array(
+    _box(0, 0, 12, 8)
+    + _box(5, 3, 7, 5)
+    + _box(9, 3.5, 9.3, 3.8)
+    + _box(3, 5, 3.3, 5.3)
+    + [(6, 8, 6, 7), (0, 4, 0.8, 4)]
+)
+
+
+def cast(pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Ranges (181,) from ``pose`` to the nearest wall segment, with 1 cm noise; > 10 m is no return."""
+    a = pose[2] + LIDAR.angles_rad
+    d = np.stack([np.cos(a), np.sin(a)], axis=1)[:, None, :]  # (M, 1, 2)
+    p, q = WALLS[None, :, :2], WALLS[None, :, 2:]
+    e = q - p
+    ao = p - pose[None, None, :2]
+    den = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (ao[..., 0] * e[..., 1] - ao[..., 1] * e[..., 0]) / den
+        s = (ao[..., 0] * d[..., 1] - ao[..., 1] * d[..., 0]) / den
+    t = np.where((t > 0) & (s >= 0) & (s <= 1) & np.isfinite(t), t, np.inf)
+    r = t.min(axis=1) + rng.normal(0, 0.01, len(a))
+    return np.where(r > LIDAR.range_max_m, np.inf, r).astype(np.float32)
+
+
+def true_path() -> np.ndarray:
+    """A loop around the box: 0.1 m steps along the sides, 0.15 rad turns in place at the corners."""
+    corners = [(1.5, 1.5), (10.5, 1.5), (10.5, 6.5), (1.5, 6.5), (1.5, 1.6)]
+    poses = [np.array([1.5, 1.5, 0.0])]
+    for (x0, y0), (x1, y1) in itertools.pairwise(corners):
+        heading = np.arctan2(y1 - y0, x1 - x0)
+        while abs(np.angle(np.exp(1j * (heading - poses[-1][2])))) > 1e-9:
+            turn = np.clip(np.angle(np.exp(1j * (heading - poses[-1][2]))), -0.15, 0.15)
+            poses.append(poses[-1] + [0, 0, turn])
+        n = int(round(np.hypot(x1 - x0, y1 - y0) / 0.1))
+        for k in range(1, n + 1):
+            poses.append(np.array([x0 + (x1 - x0) * k / n, y0 + (y1 - y0) * k / n, heading]))
+    return np.array(poses)
+
+
+def drifting_odometry(truth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """True increments with a heading bias of 0.03 rad/m and small Gaussian noise, chained from the start."""
+    odom = [truth[0].copy()]
+    for a, b in itertools.pairwise(truth):
+        inc = relative(a, b)
+        dist = np.hypot(inc[0], inc[1])
+        inc = inc + np.array(
+            [rng.normal(0, 0.01 * dist), rng.normal(0, 0.005 * dist), 0.03 * dist + rng.normal(0, 0.005)]
+        )
+        odom.append(compose(odom[-1], inc))
+    return np.array(odom)
+
+
+@pytest.fixture(scope="module")
+def world_run() -> tuple[np.ndarray, np.ndarray, FastSlam, list]:
+    rng = np.random.default_rng(7)
+    truth = true_path()
+    odom = drifting_odometry(truth, rng)
+    frames = [
+        Frame(int(k * 1e8), Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))
+        for k, (p, o) in enumerate(zip(truth, odom, strict=True))
+    ]
+    slam = FastSlam(SlamConfig(n_particles=10, resolution_m=0.05), np.random.default_rng(0))
+    steps = [slam.step(f) for f in frames]
+    return truth, odom, slam, steps
+
+
+def test_filter_stays_on_the_true_path_where_odometry_drifts(world_run: tuple) -> None:
+    truth, odom, slam, _ = world_run
+    est = slam.trajectory().poses
+    odom_err = np.hypot(*(odom[:, :2] - truth[:, :2]).T)
+    slam_err = np.hypot(*(est[:, :2] - truth[:, :2]).T)
+    yaw_err = np.abs(np.angle(np.exp(1j * (est[:, 2] - truth[:, 2]))))
+    assert odom_err[-1] > 1.0  # odometry alone ends more than a metre away
+    assert slam_err.max() < 0.25
+    assert slam_err[-1] < 0.15
+    assert np.degrees(yaw_err).max() < 4.0  # between updates the heading follows the drifting odometry
+
+
+def test_updates_only_after_enough_motion(world_run: tuple) -> None:
+    _, odom, slam, steps = world_run
+    updated = [s.index for s in steps if s.updated]
+    assert updated[0] == 0 and slam.n_updates == len(updated)
+    for a, b in itertools.pairwise(updated):  # summed odometry motion between updates
+        inc = relative(odom[a:b], odom[a + 1 : b + 1])
+        lin, ang = np.hypot(inc[:, 0], inc[:, 1]).sum(), np.abs(inc[:, 2]).sum()
+        assert lin >= 1.0 - 1e-9 or ang >= 0.5 - 1e-9
+        lin_before, ang_before = lin - np.hypot(*inc[-1, :2]), ang - abs(inc[-1, 2])
+        assert lin_before < 1.0 and ang_before < 0.5  # ... and not one scan earlier
+
+
+def test_step_reports_a_consistent_particle_set(world_run: tuple) -> None:
+    _, _, slam, steps = world_run
+    last = steps[-1]
+    assert last.poses.shape == (10, 3) and last.weights.shape == (10,)
+    assert last.weights.sum() == pytest.approx(1.0)
+    assert 1.0 <= last.neff <= 10.0
+    assert np.array_equal(last.best_pose, last.poses[last.best_index])
+    grid = slam.best_map()
+    ternary = slam.best_ternary()
+    assert ternary.image.shape == grid.spec.shape
+    # the room's south wall (y = 0) is mapped as occupied near x = 6
+    row, col = grid.spec.world_to_cell(np.array([6.0, 0.01]))
+    assert (grid.log_odds[row - 1 : row + 2, col] > 0).any()
