@@ -211,6 +211,7 @@ class BagLog(LogReader):
         odom_p: deque[tuple[float, float, float]] = deque(maxlen=256)
         pending: deque[tuple[int, np.ndarray]] = deque()
         last_scan = -(2**63)
+        odom_backwards = 0
 
         def emit(stamp: int, ranges: np.ndarray) -> Frame | None:
             n = len(odom_t)
@@ -248,6 +249,8 @@ class BagLog(LogReader):
             else:
                 for sample in self._odom_samples(conn, t, raw):
                     if odom_t and sample[0] <= odom_t[-1]:
+                        if sample[0] < odom_t[-1]:
+                            odom_backwards += 1
                         continue  # odometry stamps must increase; a repeated or older sample adds nothing
                     odom_t.append(sample[0])
                     odom_p.append(sample[1:])
@@ -266,6 +269,8 @@ class BagLog(LogReader):
                 yield frame
         if any(skipped.values()):
             warn_skipped(self.path, "skipped scans: " + ", ".join(f"{n} ({why})" for why, n in skipped.items() if n))
+        if odom_backwards:
+            warn_skipped(self.path, f"skipped {odom_backwards} odometry sample(s) whose stamp went backwards")
 
     def ground_truth(self) -> Trajectory | None:
         """Poses from a topic whose name says ground truth (Odometry or PoseStamped)."""

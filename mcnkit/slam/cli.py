@@ -105,7 +105,7 @@ def write_map(grid: OccupancyGrid, out_dir: Path, stem: str = "map") -> None:
     (out_dir / f"{stem}.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + img.tobytes())
     s = grid.spec
     (out_dir / f"{stem}.yaml").write_text(
-        f"image: {stem}.pgm\nresolution: {s.resolution_m}\norigin: [{s.origin_x_m}, {s.origin_y_m}, 0.0]\n"
+        f"image: {stem}.pgm\nresolution: {s.resolution_m:g}\norigin: [{s.origin_x_m:.6f}, {s.origin_y_m:.6f}, 0.0]\n"
         "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
     )
     from PIL import Image  # matplotlib's dependency; only needed here

@@ -109,15 +109,6 @@ def _evaluate(
     return score, loglik
 
 
-@numba.njit(cache=True, fastmath=True, error_model="numpy", inline="always")
-def _exp_neg(x: float) -> float:
-    """exp(-x): a degree-6 Taylor polynomial for x < 0.5 (relative error < 3e-7; scores stay below 0.45),
-    the library function beyond.  Several times cheaper than the libm call in the beam loop."""
-    if x >= 0.5:
-        return math.exp(-x)
-    return 1.0 - x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0 - x / 720.0)))))
-
-
 @_jit
 def _evaluate_k1(
     maps: MapArrays,
@@ -171,7 +162,7 @@ def _evaluate_k1(
                 if d2 < best:
                     best = d2
         if best < 1e300:
-            score += _exp_neg(best * inv_sigma)
+            score += math.exp(-best * inv_sigma)
             loglik -= best * inv_lsigma
         else:
             loglik -= 0.5 * inv_lsigma
@@ -230,6 +221,7 @@ def _match_all(
         ldelta, adelta = lstep, astep
         refinement = 0
         best = -1.0
+        skip = -1  # the move back to the previous pose: its score is known to be lower
         while True:
             if best >= cur:
                 refinement += 1
@@ -237,7 +229,10 @@ def _match_all(
                 adelta *= 0.5
             best = cur
             nx, ny, nt = cx, cy, ct
+            chosen = -1
             for move in range(6):
+                if move == skip:
+                    continue
                 qx, qy, qt = cx, cy, ct
                 if move == 0:
                     qx += ldelta
@@ -255,7 +250,9 @@ def _match_all(
                 if sc > cur:
                     cur = sc
                     nx, ny, nt = qx, qy, qt
+                    chosen = move
             cx, cy, ct = nx, ny, nt
+            skip = chosen ^ 1 if chosen >= 0 else -1  # moves come in opposite pairs (0, 1), (2, 3), (4, 5)
             if not (cur > best or refinement < iterations):
                 break
         scores[j] = best
