@@ -1,0 +1,160 @@
+"""Rerun recordings of SLAM runs — the only module that imports rerun.
+
+One recording per run, saved as an ``.rrd`` file with its blueprint inside.  Timelines: ``step`` (scan
+number) and ``stamp`` (the scan's ROS time, datetime64[ns]).  Everything is logged in metres in the map frame;
+``/world`` flips y so +y points up, as in RViz.
+
+Entities:
+
+| path | what |
+|---|---|
+| ``/`` | AnnotationContext: 0 free, 1 unknown, 2 occupied (static) |
+| ``/world/map/estimate`` | best particle's ternary map (SegmentationImage, placed in metres by a Transform3D) |
+| ``/world/map/unknown_mask`` | its unknown cells (own AnnotationContext: 1 = magenta, 0 transparent) |
+| ``/world/map/gt`` | ground-truth map when known (static) |
+| ``/world/particles`` | particle positions, radius and colour by weight, with ``weight`` and ``particle_id`` attached |
+| ``/world/robot/pose`` | best particle's pose (arrow) |
+| ``/world/robot/trajectory``, ``/world/robot/odom_path`` | best trajectory so far, raw odometry path |
+| ``/world/scan/hits`` | scan end points seen from the best pose |
+| ``/metrics/n_eff``, ``/metrics/particles_resampled`` | scalars |
+| ``/log`` | filter updates and resampling events (TextLog) |
+
+The logger is a context manager: leaving it, normally or by an exception (Ctrl-C included), flushes and
+finalises the file, so an interrupted run still leaves a readable recording.
+"""
+
+from __future__ import annotations
+
+import uuid
+from pathlib import Path
+from types import TracebackType
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+from numpy.typing import NDArray
+
+from mcnkit.geometry import transform_points
+from mcnkit.slam.fastslam import SlamStep
+from mcnkit.types import Frame, TernaryMap
+
+__all__ = ["APPLICATION_ID", "RerunLogger", "slam_blueprint"]
+
+APPLICATION_ID = "mcnkit"
+_CLASSES = [(0, "free", (235, 235, 235)), (1, "unknown", (128, 128, 128)), (2, "occupied", (20, 20, 20))]
+
+
+def slam_blueprint() -> rrb.Blueprint:
+    """Map with particles, robot and scan on the left; metrics and the event log on the right."""
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial2DView(name="SLAM", origin="/world", contents=["+ /world/**", "- /world/map/gt/**"]),
+            rrb.Vertical(
+                rrb.TimeSeriesView(name="metrics", origin="/metrics"),
+                rrb.Tabs(rrb.Spatial2DView(name="ground truth", origin="/world/map/gt"),
+                         rrb.TextLogView(name="events", origin="/log")),
+                row_shares=[1, 2],
+            ),
+            column_shares=[3, 2],
+        ),
+        rrb.TimePanel(timeline="step", expanded=True),
+        collapse_panels=False,
+    )
+
+
+def _ternary_classes(image: NDArray[np.float32]) -> NDArray[np.uint8]:
+    return np.rint(np.asarray(image) * 2.0).astype(np.uint8)  # 0 / 0.5 / 1 -> 0 / 1 / 2
+
+
+def _weight_colors(w: NDArray[np.float64]) -> NDArray[np.uint8]:
+    u = w / max(float(w.max()), 1e-12)
+    return np.stack([40 + 215 * u, 90 + 60 * (1 - u), 255 * (1 - u)], axis=1).astype(np.uint8)
+
+
+class RerunLogger:
+    """Writes one run to ``path`` (``.rrd``)."""
+
+    def __init__(self, path: str | Path, recording_id: str | None = None,
+                 blueprint: rrb.Blueprint | None = None) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id or str(uuid.uuid4()))
+        self.rec.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
+        self.rec.save(str(self.path), default_blueprint=blueprint or slam_blueprint())
+        self.rec.log("/", rr.AnnotationContext([rr.AnnotationInfo(id=i, label=n, color=c) for i, n, c in _CLASSES]),
+                     static=True)
+        self.rec.log("/world", rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
+        self.rec.log("/world/map/unknown_mask", rr.AnnotationContext([
+            rr.AnnotationInfo(id=0, label="known", color=(0, 0, 0, 0)),
+            rr.AnnotationInfo(id=1, label="unknown", color=(255, 0, 255, 90))]), static=True)
+        self.rec.log("/metrics/n_eff", rr.SeriesLines(names="N_eff", colors=[[30, 120, 220]], widths=2), static=True)
+        self._odom_path: list[NDArray[np.float64]] = []
+        self._closed = False
+
+    def set_time(self, step: int, stamp_ns: int) -> None:
+        """Moves both timelines to this scan."""
+        self.rec.set_time("step", sequence=step)
+        self.rec.set_time("stamp", timestamp=np.datetime64(int(stamp_ns), "ns"))
+
+    def log_map(self, entity: str, ternary: TernaryMap, *, static: bool = False, mask: bool = False) -> None:
+        """A ternary map as a SegmentationImage placed in metres (its GridSpec gives origin and cell size)."""
+        spec = ternary.spec
+        if spec is not None:
+            self.rec.log(entity, rr.Transform3D(translation=[spec.origin_x_m, spec.origin_y_m, 0.0],
+                                                scale=[spec.resolution_m, spec.resolution_m, 1.0]), static=static)
+        self.rec.log(entity, rr.SegmentationImage(_ternary_classes(ternary.image), draw_order=-10.0), static=static)
+        if mask and spec is not None:
+            m = "/world/map/unknown_mask"
+            self.rec.log(m, rr.Transform3D(translation=[spec.origin_x_m, spec.origin_y_m, 0.0],
+                                           scale=[spec.resolution_m, spec.resolution_m, 1.0]), static=static)
+            self.rec.log(m, rr.SegmentationImage(ternary.unknown_mask.astype(np.uint8), draw_order=-5.0,
+                                                 opacity=0.35), static=static)
+
+    def log_ground_truth(self, ternary: TernaryMap) -> None:
+        """The ground-truth map (static: the same at every step)."""
+        self.log_map("/world/map/gt", ternary, static=True)
+
+    def log_slam_step(self, frame: Frame, step: SlamStep, trajectory_xy: NDArray[np.float64] | None = None) -> None:
+        """Particles, best pose, scan hits, odometry path and N_eff of one filter step."""
+        self.set_time(step.index, step.stamp_ns)
+        w = np.asarray(step.weights, dtype=np.float64)
+        self.rec.log("/world/particles",
+                     rr.Points2D(step.poses[:, :2], radii=0.02 + 0.08 * w / max(float(w.max()), 1e-12),
+                                 colors=_weight_colors(w)),
+                     rr.AnyValues(weight=w, particle_id=np.arange(len(w))))
+        pose = np.asarray(step.best_pose, dtype=np.float64)
+        heading = 0.4 * np.array([np.cos(pose[2]), np.sin(pose[2])])
+        self.rec.log("/world/robot/pose", rr.Arrows2D(origins=[pose[:2]], vectors=[heading], colors=[[230, 40, 40]]))
+        scan = frame.scan
+        angles = scan.spec.angles_rad[scan.valid]
+        r = scan.ranges_m[scan.valid].astype(np.float64)
+        laser = transform_points(pose, np.array([[scan.spec.base_to_laser.x_m, scan.spec.base_to_laser.y_m]]))[0]
+        yaw = pose[2] + scan.spec.base_to_laser.yaw_rad
+        hits = np.stack([laser[0] + r * np.cos(yaw + angles), laser[1] + r * np.sin(yaw + angles)], axis=1)
+        self.rec.log("/world/scan/hits", rr.Points2D(hits, radii=0.03, colors=[[255, 160, 0]]))
+        self._odom_path.append(frame.odom.as_array()[:2])
+        if step.updated:
+            self.rec.log("/world/robot/odom_path",
+                         rr.LineStrips2D([np.asarray(self._odom_path)], radii=0.02, colors=[[150, 150, 150]]))
+            if trajectory_xy is not None:
+                self.rec.log("/world/robot/trajectory",
+                             rr.LineStrips2D([trajectory_xy], radii=0.03, colors=[[0, 180, 0]]))
+            self.rec.log("/metrics/n_eff", rr.Scalars(step.neff))
+            what = "filter update, particles resampled" if step.resampled else "filter update"
+            self.rec.log("/log", rr.TextLog(f"scan {step.index}: {what} (N_eff {step.neff:.1f})",
+                                            level=rr.TextLogLevel.INFO))
+
+    def close(self) -> None:
+        """Flushes and finalises the file (idempotent)."""
+        if not self._closed:
+            self._closed = True
+            self.rec.flush()
+            self.rec.disconnect()
+
+    def __enter__(self) -> RerunLogger:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
