@@ -28,6 +28,7 @@ from __future__ import annotations
 import uuid
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
 import numpy as np
 import rerun as rr
@@ -71,16 +72,62 @@ def _weight_colors(w: NDArray[np.float64]) -> NDArray[np.uint8]:
     return np.stack([40 + 215 * u, 90 + 60 * (1 - u), 255 * (1 - u)], axis=1).astype(np.uint8)
 
 
+class _Tee:
+    """One recording, sent to the ``.rrd`` file and, optionally, to a live notebook viewer.
+
+    A notebook viewer takes over the sinks of the stream it is attached to, so it gets a second stream with
+    the same application and recording ids; every call is made on both.
+    """
+
+    def __init__(self, application_id: str, recording_id: str) -> None:
+        self.file = rr.RecordingStream(application_id, recording_id=recording_id)
+        self.file.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
+        self.streams = [self.file]
+        self._ids = (application_id, recording_id)
+
+    def attach_notebook_viewer(self, blueprint: rrb.Blueprint, size: tuple[int, int]) -> Any:
+        import os
+
+        os.environ.setdefault("RERUN_NOTEBOOK_ASSET", "serve-local")  # offline: the kernel serves the viewer
+        import rerun.notebook
+
+        live = rr.RecordingStream(self._ids[0], recording_id=self._ids[1])
+        live.set_log_time_enabled(False)
+        viewer = rerun.notebook.Viewer(recording=live, width=size[0], height=size[1], blueprint=blueprint)
+        self.streams.append(live)
+        return viewer
+
+    def log(self, *args: Any, **kwargs: Any) -> None:
+        for s in self.streams:
+            s.log(*args, **kwargs)
+
+    def set_time(self, *args: Any, **kwargs: Any) -> None:
+        for s in self.streams:
+            s.set_time(*args, **kwargs)
+
+    def flush(self) -> None:
+        for s in self.streams:
+            s.flush()
+
+    def disconnect(self) -> None:
+        for s in self.streams:
+            s.disconnect()
+
+
 class RerunLogger:
-    """Writes one run to ``path`` (``.rrd``)."""
+    """Writes one run to ``path`` (``.rrd``) and, with ``notebook_viewer=True``, streams it to ``.viewer``
+    (a ``rerun.notebook.Viewer``: show it with ``logger.viewer.display()``)."""
 
     def __init__(self, path: str | Path, recording_id: str | None = None,
-                 blueprint: rrb.Blueprint | None = None) -> None:
+                 blueprint: rrb.Blueprint | None = None, *, notebook_viewer: bool = False,
+                 viewer_size: tuple[int, int] = (1000, 520)) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.rec = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id or str(uuid.uuid4()))
-        self.rec.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
-        self.rec.save(str(self.path), default_blueprint=blueprint or slam_blueprint())
+        recording_id = recording_id or str(uuid.uuid4())
+        blueprint = blueprint or slam_blueprint()
+        self.rec = _Tee(APPLICATION_ID, recording_id)
+        self.rec.file.save(str(self.path), default_blueprint=blueprint)
+        self.viewer = self.rec.attach_notebook_viewer(blueprint, viewer_size) if notebook_viewer else None
         self.rec.log("/", rr.AnnotationContext([rr.AnnotationInfo(id=i, label=n, color=c) for i, n, c in _CLASSES]),
                      static=True)
         self.rec.log("/world", rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
@@ -90,6 +137,11 @@ class RerunLogger:
         self.rec.log("/metrics/n_eff", rr.SeriesLines(names="N_eff", colors=[[30, 120, 220]], widths=2), static=True)
         self._odom_path: list[NDArray[np.float64]] = []
         self._closed = False
+
+    def seek(self, step: int) -> None:
+        """Moves the embedded viewer's time cursor to ``step`` (no-op without a viewer)."""
+        if self.viewer is not None:
+            self.viewer.set_time_ctrl(timeline="step", sequence=int(step), play=False)
 
     def set_time(self, step: int, stamp_ns: int) -> None:
         """Moves both timelines to this scan."""
