@@ -44,7 +44,14 @@ class SlamStepper:
         self.ground_truth = ground_truth
         self.events: list[str] = []
         self._ui: dict[str, Any] = {}
+        self._logger: RerunLogger | None = None
         self.reset()
+
+    @property
+    def logger(self) -> RerunLogger:
+        """The recording of the current run."""
+        assert self._logger is not None
+        return self._logger
 
     # -- the filter ---------------------------------------------------------------------------------------
     def config(self) -> SlamConfig:
@@ -55,10 +62,10 @@ class SlamStepper:
 
     def reset(self) -> None:
         """A new filter and a new recording (the old file is replaced)."""
-        if getattr(self, "logger", None) is not None:
-            self.logger.close()
+        if self._logger is not None:
+            self._logger.close()
         self.slam = FastSlam(self.config(), np.random.default_rng(self.seed))
-        self.logger = RerunLogger(self.rrd_path, recording_id=f"stepper-{self.seed}", notebook_viewer=self.use_viewer)
+        self._logger = RerunLogger(self.rrd_path, recording_id=f"stepper-{self.seed}", notebook_viewer=self.use_viewer)
         if self.ground_truth is not None:
             self.logger.log_ground_truth(self.ground_truth)
         self.index = 0

@@ -70,12 +70,15 @@ def counts_to_grid(
     ``log_odds = logit(p) - logit(occ_thresh)`` with ``p = hits / (hits + passes)`` clipped to
     [0.001, 0.999]: positive (occupied) iff ``p > occ_thresh``, exactly 0 (unknown) where nothing was seen.
     """
-    total = hits + passes
+    total = passes.astype(np.float32)
+    total += hits
     seen = total > 0
-    p = np.clip(hits[seen] / total[seen], 1e-3, 1 - 1e-3).astype(np.float32)  # only seen cells: less memory
+    log_odds = np.zeros(spec.shape, np.float32)
+    p = hits[seen] / total[seen]  # only seen cells: less memory than whole-grid temporaries
+    del total
+    np.clip(p, 1e-3, 1 - 1e-3, out=p)
     lo = np.log(p / (1 - p)) - np.float32(math.log(occ_thresh / (1 - occ_thresh)))
     lo[lo == 0] = -1e-3
-    log_odds = np.zeros(spec.shape, np.float32)
     log_odds[seen] = lo
     return OccupancyGrid(spec, log_odds)
 
@@ -255,11 +258,17 @@ class FastSlam:
         max_range, usable = self._ranges(lidar)
         back_m = math.sqrt(2.0) * self.config.resolution_m
         laser = lidar.base_to_laser.as_array()
-        scans = [
-            beam_points(r, lidar.angles_rad, laser, max_range, usable, back_m, self.config.lskip)
-            for r in self._scan_ranges
-        ]
-        return match_scans_to_map(self.maps, particle, poses, scans, self.config)
+        out = poses.copy()
+        chunk = 50  # beams of 50 scans at a time: memory stays flat on long logs
+        for start in range(0, len(out), chunk):
+            scans = [
+                beam_points(r, lidar.angles_rad, laser, max_range, usable, back_m, self.config.lskip)
+                for r in self._scan_ranges[start : start + chunk]
+            ]
+            out[start : start + chunk] = match_scans_to_map(
+                self.maps, particle, out[start : start + chunk], scans, self.config, chunk
+            )
+        return out
 
     def best_map(self, particle: int | None = None) -> OccupancyGrid:
         """The output map: update scans ray-cast from a particle's corrected poses (default: the best)."""

@@ -124,3 +124,14 @@ def test_step_reports_a_consistent_particle_set(world_run: tuple) -> None:
     # the room's south wall (y = 0) is mapped as occupied near x = 6
     row, col = grid.spec.world_to_cell(np.array([6.0, 0.01]))
     assert (grid.log_odds[row - 1 : row + 2, col] > 0).any()
+
+
+def test_trajectory_modes_agree_at_updates_and_matched_fixes_the_heading(world_run: tuple) -> None:
+    truth, _, slam, steps = world_run
+    gm, sm, mt = (slam.trajectory(mode=m).poses for m in ("gmapping", "smoothed", "matched"))
+    at_updates = [s.index for s in steps if s.updated]
+    np.testing.assert_allclose(gm[at_updates], sm[at_updates], atol=1e-9)  # smoothing moves in-between poses only
+    yaw_err = np.degrees(np.abs(np.angle(np.exp(1j * (mt[:, 2] - truth[:, 2])))))
+    assert yaw_err.max() < 1.5  # every scan matched to the map: no odometry drift between updates
+    with pytest.raises(ValueError, match="mode must be"):
+        slam.trajectory(mode="best")
