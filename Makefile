@@ -10,7 +10,7 @@ SHARED ?= ../shared/data
 export RERUN_ANALYTICS = 0
 export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
 
-.PHONY: help venv demo test lint typecheck pytest bench clean
+.PHONY: help venv demo test lint typecheck pytest bench clean browser-check
 
 help:
 	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> SLAM map)"
@@ -30,7 +30,7 @@ demo: $(STAMP)
 	$(VENV)/bin/mcnkit demo
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check mcnkit tests benchmarks
+	$(VENV)/bin/ruff check mcnkit tests benchmarks notebooks
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
@@ -46,3 +46,7 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
+
+# JupyterLab on 127.0.0.1 in headless Chromium (apt-get install chromium): runs notebook 03, saves a screenshot
+browser-check: $(STAMP)
+	$(PY) notebooks/browser_check.py notebooks/03_fastslam_step_by_step.ipynb notebooks/screenshots/03_jupyterlab.png

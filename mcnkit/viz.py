@@ -94,6 +94,7 @@ class _Tee:
         live = rr.RecordingStream(self._ids[0], recording_id=self._ids[1])
         live.set_log_time_enabled(False)
         viewer = rerun.notebook.Viewer(recording=live, width=size[0], height=size[1], blueprint=blueprint)
+        viewer.update_panels(blueprint="hidden", selection="hidden")  # room for the views; the time panel stays
         self.streams.append(live)
         return viewer
 

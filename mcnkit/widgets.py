@@ -13,7 +13,7 @@ Example:
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +45,7 @@ class SlamStepper:
         self.events: list[str] = []
         self._ui: dict[str, Any] = {}
         self._logger: RerunLogger | None = None
+        self._on_change: list[Callable[[], None]] = []
         self.reset()
 
     @property
@@ -87,6 +88,8 @@ class SlamStepper:
             self.last = st
             self.index += 1
         self.logger.rec.flush()
+        for callback in self._on_change:
+            callback()
         return self.last
 
     def run(self) -> SlamStep | None:
@@ -137,17 +140,16 @@ class SlamStepper:
 
         def on_step(_: Any) -> None:
             self.step(int(ui["n"].value))
-            refresh()
 
         def on_run(_: Any) -> None:
             self.step(len(self.frames))
-            refresh()
 
         def on_reset(_: Any) -> None:
             self.particles, self.noise_scale = int(ui["particles"].value), float(ui["noise"].value)
             self.reset()
             refresh()
 
+        self._on_change.append(refresh)
         ui["step_btn"].on_click(on_step)
         ui["run_btn"].on_click(on_run)
         ui["reset_btn"].on_click(on_reset)
