@@ -7,17 +7,14 @@ stderr naming the file and the problem, and exit code 2; Ctrl-C ends with exit c
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import warnings
 from collections.abc import Sequence
 from typing import TextIO
 
 from mcnkit import __version__
-from mcnkit.datasets.cli import add_data_parser, add_simulate_parser
-from mcnkit.demo import add_demo_parser
-from mcnkit.io.cli import add_convert_parser, add_info_parser
 from mcnkit.io.errors import LogError
-from mcnkit.slam.cli import add_eval_parser, add_slam_parser
 
 __all__ = ["main"]
 
@@ -32,8 +29,21 @@ def _show_warning(
     print(f"warning: {message}", file=sys.stderr)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every subcommand."""
+# name -> (module, function adding its subparser).  Only the module of the command being run is imported, so
+# `mcnkit slam` does not pay for rerun, torch or the dataset tools (time and memory).
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("mcnkit.demo", "add_demo_parser"),
+    "info": ("mcnkit.io.cli", "add_info_parser"),
+    "convert": ("mcnkit.io.cli", "add_convert_parser"),
+    "slam": ("mcnkit.slam.cli", "add_slam_parser"),
+    "eval": ("mcnkit.slam.cli", "add_eval_parser"),
+    "simulate": ("mcnkit.datasets.cli", "add_simulate_parser"),
+    "data": ("mcnkit.datasets.cli", "add_data_parser"),
+}
+
+
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser with every subcommand (or just ``only``)."""
     parser = argparse.ArgumentParser(
         prog="mcnkit",
         description="Map completion network SLAM: read robot logs, run grid FastSLAM with map completion, "
@@ -42,16 +52,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"mcnkit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for add in (add_demo_parser, add_info_parser, add_convert_parser, add_slam_parser, add_eval_parser, add_simulate_parser,
-                add_data_parser):
-        add(sub)
+    for name, (module, adder) in COMMANDS.items():
+        if only is None or name == only:
+            getattr(importlib.import_module(module), adder)(sub)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``mcnkit`` console script."""
     warnings.showwarning = _show_warning
-    args = build_parser().parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    command = next((w for w in words if not w.startswith("-")), None)
+    args = build_parser(command if command in COMMANDS else None).parse_args(words)
     try:
         return int(args.func(args))
     except LogError as err:

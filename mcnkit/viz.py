@@ -39,7 +39,7 @@ from mcnkit.geometry import transform_points
 from mcnkit.slam.fastslam import SlamStep
 from mcnkit.types import Frame, TernaryMap
 
-__all__ = ["APPLICATION_ID", "RerunLogger", "slam_blueprint"]
+__all__ = ["APPLICATION_ID", "RerunLogger", "recording_viewer", "slam_blueprint"]
 
 APPLICATION_ID = "mcnkit"
 _CLASSES = [(0, "free", (235, 235, 235)), (1, "unknown", (128, 128, 128)), (2, "occupied", (20, 20, 20))]
@@ -49,10 +49,11 @@ def slam_blueprint() -> rrb.Blueprint:
     """Map with particles, robot and scan on the left; metrics and the event log on the right."""
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial2DView(name="SLAM", origin="/world", contents=["+ /world/**", "- /world/map/gt/**"]),
+            # origin "/": a view ignores its origin's own transform, and /world's flips y up (map frame as in RViz)
+            rrb.Spatial2DView(name="SLAM", origin="/", contents=["+ /world/**", "- /world/map/gt/**"]),
             rrb.Vertical(
                 rrb.TimeSeriesView(name="metrics", origin="/metrics"),
-                rrb.Tabs(rrb.Spatial2DView(name="ground truth", origin="/world/map/gt"),
+                rrb.Tabs(rrb.Spatial2DView(name="ground truth", origin="/", contents=["+ /world/map/gt/**"]),
                          rrb.TextLogView(name="events", origin="/log")),
                 row_shares=[1, 2],
             ),
@@ -61,6 +62,28 @@ def slam_blueprint() -> rrb.Blueprint:
         rrb.TimePanel(timeline="step", expanded=True),
         collapse_panels=False,
     )
+
+
+def recording_viewer(path: str | Path, size: tuple[int, int] = (1000, 560)) -> Any:
+    """An embedded notebook viewer showing a finished ``.rrd`` (its chunks are sent from the kernel, offline).
+
+    Returns the ``rerun.notebook.Viewer``; call ``.display()`` on it, and ``.set_time_ctrl(timeline="step",
+    sequence=i, play=False)`` to move its time cursor.
+    """
+    import os
+
+    from rerun.chunk import RrdReader
+
+    os.environ.setdefault("RERUN_NOTEBOOK_ASSET", "serve-local")
+    import rerun.notebook
+
+    reader = RrdReader(str(path))
+    rec_id = reader.recordings()[0].recording_id if reader.recordings() else str(uuid.uuid4())
+    stream = rr.RecordingStream(APPLICATION_ID, recording_id=rec_id)
+    viewer = rerun.notebook.Viewer(recording=stream, width=size[0], height=size[1], blueprint=slam_blueprint())
+    viewer.update_panels(blueprint="hidden", selection="hidden")
+    stream.send_chunks(reader.store())
+    return viewer
 
 
 def _ternary_classes(image: NDArray[np.float32]) -> NDArray[np.uint8]:

@@ -25,9 +25,9 @@ from matplotlib.figure import Figure
 from mcnkit.plots import plot_slam_state
 from mcnkit.slam import FastSlam, SlamConfig, SlamStep
 from mcnkit.types import Frame, TernaryMap
-from mcnkit.viz import RerunLogger
+from mcnkit.viz import RerunLogger, recording_viewer
 
-__all__ = ["SlamStepper"]
+__all__ = ["SlamStepper", "recording_player"]
 
 
 class SlamStepper:
@@ -159,3 +159,14 @@ class SlamStepper:
             w.HBox([ui["n"], ui["step_btn"], ui["run_btn"]]),
             ui["cursor"], ui["status"], ui["events"],
         ])
+
+
+def recording_player(path: str | Path, n_steps: int) -> w.VBox:
+    """A finished recording in the embedded viewer, with a step slider that scrubs its time cursor."""
+    viewer = recording_viewer(path)
+    slider = w.IntSlider(value=n_steps - 1, min=0, max=max(n_steps - 1, 0), description="step",
+                         continuous_update=True, layout=w.Layout(width="95%"))
+    slider.observe(lambda ch: viewer.set_time_ctrl(timeline="step", sequence=int(ch["new"]), play=False),
+                   names="value")
+    viewer.display()
+    return w.VBox([slider])

@@ -84,12 +84,16 @@ def main() -> int:
     if chromium is None:
         print("browser_check: chromium not found (apt-get install chromium)", file=sys.stderr)
         return 2
-    root = Path.cwd()
-    nb_rel = args.notebook.resolve().relative_to(root)
+    # JupyterLab saves what it runs: work on a copy, so the repository's notebooks stay without outputs.
+    work = Path(tempfile.mkdtemp(prefix="mcnkit-browser-"))
+    root = work / "project"
+    (root / "notebooks").mkdir(parents=True)
+    (root / "recordings").mkdir()
+    shutil.copy(args.notebook, root / "notebooks" / args.notebook.name)
+    nb_rel = Path("notebooks") / args.notebook.name
     lab_port, debug_port = _free_port(), _free_port()
     env = dict(os.environ, RERUN_NOTEBOOK_ASSET="serve-local", RERUN_ANALYTICS="0")
     env.pop("MCNKIT_CI", None)
-    work = Path(tempfile.mkdtemp(prefix="mcnkit-browser-"))
     lab = subprocess.Popen(
         [sys.executable, "-m", "jupyterlab", "--no-browser", "--ip=127.0.0.1", f"--port={lab_port}",
          "--IdentityProvider.token=", "--ServerApp.password=", "--ServerApp.disable_check_xsrf=True",
@@ -119,6 +123,9 @@ def main() -> int:
         time.sleep(args.wait)
         errors = page.js("document.querySelectorAll('.jp-OutputArea-output[data-mime-type=\"application/vnd.jupyter.stderr\"]').length")
         tracebacks = page.js("Array.from(document.querySelectorAll('.jp-RenderedText')).filter(e => e.innerText.includes('Traceback')).length")
+        page.js("(() => { const c = document.querySelector('.jp-OutputArea canvas');"
+                " if (c) c.scrollIntoView({block: 'start'}); })()")  # the viewer, and the widgets below it
+        time.sleep(5)
         shot = page.call("Page.captureScreenshot", format="png", captureBeyondViewport=False)
         args.png.parent.mkdir(parents=True, exist_ok=True)
         args.png.write_bytes(base64.b64decode(str(shot["data"])))

@@ -142,25 +142,27 @@ def _evaluate_k1(
         best = 1e300
         lx = ix - wx0
         ly = iy - wy0
-        inside = 0 <= lx < w and 0 <= ly < h and usable[ly >> shift, lx >> shift] == 1
-        for dy in range(-1, 2):
-            for dx in range(-1, 2):
-                if inside:
-                    ox = wm[ly + dy, lx + dx, 0]
-                    if ox < 0.0:
-                        continue
-                    oy = wm[ly + dy, lx + dx, 1]
-                else:
+        if 0 <= lx < w and 0 <= ly < h and usable[ly >> shift, lx >> shift] == 1:
+            # dense window, branch-free: a cell without hits (offset -1) yields a huge distance
+            ox0 = x - (ix - 1) * res
+            oy0 = y - (iy - 1) * res
+            for dy in range(3):
+                for dx in range(3):
+                    ox = wm[ly + dy - 1, lx + dx - 1, 0]
+                    ex = ox0 - dx * res - ox
+                    ey = oy0 - dy * res - wm[ly + dy - 1, lx + dx - 1, 1]
+                    d2 = ex * ex + ey * ey
+                    d2 = d2 if ox >= 0.0 else 1e300
+                    best = min(best, d2)
+        else:
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
                     cell = cell_of(table, p, ix + dx, iy + dy, tx0, ty0, shift)
                     if cell < 0 or count[cell] == 0:
                         continue
-                    ox = mean_x[cell]
-                    oy = mean_y[cell]
-                ex = x - ((ix + dx) * res + ox)
-                ey = y - ((iy + dy) * res + oy)
-                d2 = ex * ex + ey * ey
-                if d2 < best:
-                    best = d2
+                    ex = x - ((ix + dx) * res + mean_x[cell])
+                    ey = y - ((iy + dy) * res + mean_y[cell])
+                    best = min(best, ex * ex + ey * ey)
         if best < 1e300:
             score += math.exp(-best * inv_sigma)
             loglik -= best * inv_lsigma

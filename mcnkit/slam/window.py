@@ -74,7 +74,8 @@ def window(points_xy: F64, res: float, shift: int, reach_tiles: int) -> Window:
     copied = ndimage.binary_dilation(usable, np.ones((3, 3), bool))
     side = 1 << shift
     wm = np.full((th * side, tw * side, 2), -1.0, np.float32)
-    return wm, usable.astype(np.uint8), np.argwhere(copied).astype(np.int64), int(lo[0]) * side, int(lo[1]) * side
+    tiles_rc = np.ascontiguousarray(np.argwhere(copied), dtype=np.int64)  # C order: one compiled signature
+    return wm, usable.astype(np.uint8), tiles_rc, int(lo[0]) * side, int(lo[1]) * side
 
 
 def end_points(poses: F64, end_xy: F64) -> F64:

@@ -135,3 +135,19 @@ def test_trajectory_modes_agree_at_updates_and_matched_fixes_the_heading(world_r
     assert yaw_err.max() < 1.5  # every scan matched to the map: no odometry drift between updates
     with pytest.raises(ValueError, match="mode must be"):
         slam.trajectory(mode="best")
+
+
+def test_scans_without_returns_and_a_mounted_laser_do_not_break_the_filter() -> None:
+    spec = LidarSpec(-np.pi / 2, np.pi / 180, 181, 0.05, 10.0, Pose2D(0.2, 0.0, 0.0))
+    rng = np.random.default_rng(1)
+    slam = FastSlam(SlamConfig(n_particles=5), np.random.default_rng(0))
+    for k in range(30):
+        truth = np.array([1.5 + 0.1 * k, 1.5, 0.0])
+        laser = compose(truth, np.array([0.2, 0.0, 0.0]))
+        empty = k % 3 == 1  # every third scan, the first one excepted, has no return at all
+        ranges = np.full(181, np.inf, np.float32) if empty else cast(laser, rng)
+        step = slam.step(Frame(k * 10**8, Scan(ranges, spec), Pose2D.from_array(truth)))
+        assert np.isfinite(step.poses).all()
+    assert slam.n_updates >= 3
+    assert np.abs(slam.trajectory(mode="matched").poses[:, 1] - 1.5).max() < 0.1
+    assert slam.best_map().log_odds.any()
