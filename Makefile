@@ -10,12 +10,14 @@ SHARED ?= ../shared/data
 export RERUN_ANALYTICS = 0
 export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
 
-.PHONY: help venv demo test lint typecheck pytest bench clean browser-check
+.PHONY: help venv demo test lint typecheck pytest bench clean browser-check notebooks
 
 help:
 	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> SLAM map)"
 	@echo "make test   set up .venv and run ruff, mypy and pytest (all tests, slow ones included)"
 	@echo "make bench  run the benchmarks in benchmarks/ (figures printed and written as JSON)"
+	@echo "make notebooks       run every notebook in full mode (copies with outputs in notebooks/executed/)"
+	@echo "make browser-check   JupyterLab + headless Chromium: run notebook 03, save a screenshot"
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -43,6 +45,11 @@ test: lint typecheck pytest
 bench: $(STAMP)
 	$(PY) benchmarks/bench_io.py
 	$(PY) benchmarks/bench_slam.py
+	$(PY) benchmarks/bench_sim_slam.py
+
+# every notebook top to bottom in full mode (make test runs them small, in CI mode)
+notebooks: $(STAMP)
+	$(PY) notebooks/run_notebooks.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
