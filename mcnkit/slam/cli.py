@@ -5,10 +5,12 @@ The lead's dispatcher (``mcnkit/cli.py``) wires these in with :func:`add_slam_pa
 
 Outputs of ``mcnkit slam LOG --out DIR``:
 
-* ``trajectory.tum``: the best particle's pose at every scan, each scan matched against that particle's final
-  map (``mode="matched"`` of :meth:`mcnkit.slam.FastSlam.trajectory`); ``trajectory_gmapping.tum``: gmapping's
-  convention (last corrected pose plus the odometry change since), the one the gmapping anchors use;
-  ``trajectory_smoothed.tum``: each correction spread over the interval before it;
+* ``trajectory.tum``: the best particle's pose at every scan as the filter had it online — gmapping's
+  convention, the last corrected pose plus the odometry change since (the one the gmapping anchors use);
+* offline refinements of the same run: ``trajectory_matched.tum`` (every scan matched against the best
+  particle's final map, ``mode="matched"`` of :meth:`mcnkit.slam.FastSlam.trajectory`: a smoother that uses
+  later information) and ``trajectory_smoothed.tum`` (each correction spread over the interval before it);
+* ``run.rrd`` with ``--rrd``: every step recorded for Rerun (see :mod:`mcnkit.viz`);
 * ``map.pgm`` + ``map.yaml`` (ROS ``map_server``: occupied 0, free 254, unknown 205), ``map.png``;
 * ``summary.json``: scans, filter updates, resamplings, cpu_s, wall_s, peak_rss_mb, final Neff, ...
 """
@@ -20,6 +22,7 @@ import json
 import resource
 import sys
 import time
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +61,9 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--out", type=Path, required=True, help="output folder (created)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--rrd", type=Path, help="record every step to this Rerun file (.rrd)")
+    p.add_argument("--rrd-map-every", type=int, default=10,
+                   help="with --rrd: log the best particle's map every N filter updates (default 10)")
     p.set_defaults(func=run_slam)
     return p
 
@@ -130,13 +136,23 @@ def run_slam(args: argparse.Namespace) -> int:
     except ValueError as err:
         print(f"mcnkit slam: {err}", file=sys.stderr)
         return 2
+    rrd: Path | None = getattr(args, "rrd", None)
     try:
         reader = _open(args.log)
         slam = FastSlam(config, np.random.default_rng(args.seed))
-        with reader:
+        with reader, ExitStack() as stack:
+            recorder = None
+            if rrd is not None:
+                from mcnkit.viz import RerunLogger  # rerun only when asked for
+
+                recorder = stack.enter_context(RerunLogger(rrd, recording_id=f"slam-{Path(args.log).stem}-{args.seed}"))
             frames = tqdm(reader.frames(), total=_scan_count(reader), unit="scan", disable=args.no_progress)
             for frame in frames:
                 step = slam.step(frame)
+                if recorder is not None:
+                    recorder.log_slam_step(frame, step, slam.trajectory().poses[:, :2] if step.updated else None)
+                    if step.updated and slam.n_updates % max(args.rrd_map_every, 1) == 1:
+                        recorder.log_map("/world/map/estimate", slam.best_ternary(), mask=True)
                 if step.updated:
                     frames.set_postfix(updates=slam.n_updates, neff=f"{step.neff:.1f}", refresh=False)
     except (LogError, OSError) as err:
@@ -148,8 +164,8 @@ def run_slam(args: argparse.Namespace) -> int:
     cpu_slam, wall_slam = time.process_time() - cpu0, time.perf_counter() - wall0
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
-    write_tum(out / "trajectory.tum", slam.trajectory(mode="matched"))
-    write_tum(out / "trajectory_gmapping.tum", slam.trajectory(mode="gmapping"))
+    write_tum(out / "trajectory.tum", slam.trajectory(mode="gmapping"))
+    write_tum(out / "trajectory_matched.tum", slam.trajectory(mode="matched"))
     write_tum(out / "trajectory_smoothed.tum", slam.trajectory(mode="smoothed"))
     grid = slam.best_map()
     write_map(grid, out)
