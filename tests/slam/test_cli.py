@@ -74,3 +74,17 @@ def test_unreadable_log_is_one_line_and_exit_code_2(tmp_path: Path, capsys: pyte
     assert err and "\n" not in err
     assert _run(["slam", str(tmp_path / "missing.clf"), "--out", str(tmp_path / "o")]) == 2
     assert _run(["eval", "relations", str(tmp_path / "missing.tum"), str(bad)]) == 2
+
+
+def test_slam_records_every_step_to_rerun_when_asked(tmp_path: Path) -> None:
+    from rerun.chunk import RrdReader
+
+    log = tmp_path / "corridor.clf"
+    _write_clf(log)
+    rrd = tmp_path / "run.rrd"
+    assert _run(["slam", str(log), "--particles", "4", "--out", str(tmp_path / "out"), "--no-progress",
+                 "--rrd", str(rrd)]) == 0
+    store = RrdReader(rrd).stream().collect()
+    table = store.reader(index="step", contents="/world/particles").to_arrow_table()
+    assert table.num_rows == 30
+    assert "/world/map/estimate" in {chunk.entity_path for chunk in store.stream()}
