@@ -5,8 +5,12 @@ The lead's dispatcher (``mcnkit/cli.py``) wires these in with :func:`add_slam_pa
 
 Outputs of ``mcnkit slam LOG --out DIR``:
 
-* ``trajectory.tum``: the best particle's pose at every scan as the filter had it online — gmapping's
-  convention, the last corrected pose plus the odometry change since (the one the gmapping anchors use);
+* ``trajectory.tum``: the best particle's pose at every scan: its corrected poses at the filter updates (its
+  ancestry, as gmapping reports it) and, in between, that pose moved by the scan-to-map tracking the filter did
+  online (``SlamConfig.track_every_scan``: changes no weight or map) instead of by raw odometry;
+* ``trajectory_online.tum``: strictly causal — at every scan the pose of the particle that was best *then*;
+* ``trajectory_gmapping.tum``: gmapping's convention for the same run, the last corrected pose plus the
+  odometry change since (the convention the gmapping anchors were measured with);
 * offline refinements of the same run: ``trajectory_matched.tum`` (every scan matched against the best
   particle's final map, ``mode="matched"`` of :meth:`mcnkit.slam.FastSlam.trajectory`: a smoother that uses
   later information) and ``trajectory_smoothed.tum`` (each correction spread over the interval before it);
@@ -164,7 +168,9 @@ def run_slam(args: argparse.Namespace) -> int:
     cpu_slam, wall_slam = time.process_time() - cpu0, time.perf_counter() - wall0
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
-    write_tum(out / "trajectory.tum", slam.trajectory(mode="gmapping"))
+    write_tum(out / "trajectory.tum", slam.trajectory(mode="tracked"))
+    write_tum(out / "trajectory_online.tum", slam.trajectory(mode="online"))
+    write_tum(out / "trajectory_gmapping.tum", slam.trajectory(mode="gmapping"))
     write_tum(out / "trajectory_matched.tum", slam.trajectory(mode="matched"))
     write_tum(out / "trajectory_smoothed.tum", slam.trajectory(mode="smoothed"))
     grid = slam.best_map()

@@ -66,6 +66,13 @@ class SlamConfig:
     gmapping intends this check, but computes the "free" cell with a map-origin offset that puts it far away
     (unknown, counted as free), so in practice it never rejects: off reproduces gmapping, and is faster.
     """
+    track_every_scan: bool = True
+    """Between filter updates, also scan-match the best particle's pose at every scan against its map (one
+    particle, causal: only the map built so far) from two starts — the previous scan's tracked pose moved by the
+    odometry change, and gmapping's pose (the last corrected pose plus the odometry change, which cannot drift) —
+    keeping the better-scoring match.  It changes no weight and no map: only the
+    reported online trajectory (``FastSlam.trajectory(mode="online")``).  Off: the reported pose between updates
+    is gmapping's."""
     occ_thresh: float = 0.25
     """Output map: a cell is occupied when hits / (hits + passes) exceeds this [occ_thresh]."""
     tile_cells: int = 8

@@ -31,7 +31,7 @@ from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.maps import TiledHitMaps, ray_cast_counts
 from mcnkit.slam.motion import MotionNoise, sample_motion
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
-from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map
+from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
 __all__ = ["FastSlam", "SlamStep", "counts_to_grid"]
@@ -110,6 +110,8 @@ class FastSlam:
         self._scan_odom: list[F64] = []
         self._scan_update: list[int] = []  # index of the last update at or before each scan
         self._scan_ranges: list[NDArray[np.float32]] = []  # every scan, for trajectory(mode="matched")
+        self._scan_online: list[F64] = []  # the online pose of every scan (see SlamConfig.track_every_scan)
+        self._scan_tracked: list[F64] = []  # that pose relative to the best particle's last update pose
 
     @property
     def best_index(self) -> int:
@@ -141,6 +143,9 @@ class FastSlam:
         scores = None
         if updated:
             resampled, scores = self._update(frame, first)
+        online = self._online_pose(frame, odom, updated)
+        self._scan_online.append(online)
+        self._scan_tracked.append(relative(self._history[self.n_updates - 1, self.best_index], online))
         self._scan_stamps.append(frame.stamp_ns)
         self._scan_odom.append(odom)
         self._scan_update.append(self.n_updates - 1)
@@ -159,6 +164,27 @@ class FastSlam:
             self.poses[best].copy(),
             scores,
         )
+
+    def _online_pose(self, frame: Frame, odom: F64, updated: bool) -> F64:
+        """The best particle's pose at this scan as known online (see ``SlamConfig.track_every_scan``)."""
+        best = self.best_index
+        if updated or not self._scan_online:
+            return self.poses[best].copy()
+        from_update = compose(self._history[self.n_updates - 1, best], relative(self._update_odom[-1], odom))
+        if not self.config.track_every_scan:
+            return from_update
+        # Two starts: the previous scan's tracked pose moved by odometry (close, but may drift where the
+        # geometry is degenerate) and gmapping's pose (no drift, but up to an interval of odometry error away).
+        # Both are hill-climbed; the better-scoring match is kept.
+        from_last = compose(self._scan_online[-1], relative(self._scan_odom[-1], odom))
+        lidar = frame.scan.spec
+        max_range, usable = self._ranges(lidar)
+        end_b, back_b = beam_points(frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range,
+                                    usable, math.sqrt(2.0) * self.config.resolution_m, self.config.lskip)
+        starts = np.stack([from_last, from_update])
+        matched = match_scans_to_map(self.maps, best, starts, [(end_b, back_b)] * 2, self.config)
+        scores, _ = score_poses(self.maps, best, matched, end_b, back_b, self.config)
+        return matched[0] if scores[0] > 1.05 * scores[1] else matched[1]  # near-ties go to the drift-free start
 
     def _update(self, frame: Frame, first: bool) -> tuple[bool, F64 | None]:
         cfg = self.config
@@ -216,9 +242,15 @@ class FastSlam:
         p = self.best_index if particle is None else particle
         return self._history[: self.n_updates, p].copy()
 
-    def trajectory(self, particle: int | None = None, mode: str = "gmapping") -> Trajectory:
+    def trajectory(self, particle: int | None = None, mode: str = "tracked") -> Trajectory:
         """Pose at every scan so far along a particle's ancestry (default: the best particle).
 
+        * ``"tracked"`` (default): the particle's corrected pose at each filter update (its ancestry, as in
+          ``"gmapping"``) and, in between, that pose moved by the scan-to-map tracking done online
+          (``SlamConfig.track_every_scan``) instead of by raw odometry;
+        * ``"online"``: what the filter reported at each scan, as it ran: the corrected pose at updates and, in
+          between, the best particle's pose tracked scan by scan against its map (``SlamConfig.track_every_scan``;
+          gmapping's convention when that is off).  Causal; ``particle`` does not apply;
         * ``"gmapping"`` (gmapping's convention): the last corrected update pose plus the odometry change since;
         * ``"smoothed"`` (offline): between two updates, blends that forward estimate with the next corrected
           pose minus the odometry still to come, in proportion to the motion (metres + radians) already made
@@ -226,10 +258,18 @@ class FastSlam:
         * ``"matched"`` (offline): the smoothed pose of every scan hill-climbed against the particle's final
           map (the update scans included), as gmapping matches at updates, without touching weights or maps.
         """
-        if mode not in ("gmapping", "smoothed", "matched"):
-            raise ValueError(f"mode must be 'gmapping', 'smoothed' or 'matched', got {mode!r}")
+        modes = ("tracked", "online", "gmapping", "smoothed", "matched")
+        if mode not in modes:
+            raise ValueError(f"mode must be one of {modes}, got {mode!r}")
+        if mode == "online":
+            if particle is not None:
+                raise ValueError("the online trajectory is the best particle's as it was at each scan; pass no particle")
+            return Trajectory(np.asarray(self._scan_stamps, dtype=np.int64), np.asarray(self._scan_online))
         upd = self.update_poses(particle)
         k = np.asarray(self._scan_update, dtype=np.int64)
+        if mode == "tracked":
+            stamps = np.asarray(self._scan_stamps, dtype=np.int64)
+            return Trajectory(stamps, compose(upd[k], np.asarray(self._scan_tracked)))
         odom = np.asarray(self._scan_odom)
         upd_odom = np.asarray(self._update_odom)
         poses = compose(upd[k], relative(upd_odom[k], odom))
