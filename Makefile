@@ -10,7 +10,7 @@ SHARED ?= ../shared/data
 export RERUN_ANALYTICS = 0
 export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
 
-.PHONY: help venv demo test lint typecheck pytest bench clean browser-check notebooks
+.PHONY: help venv demo test lint typecheck pytest bench clean browser-check notebooks data
 
 help:
 	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> SLAM map)"
@@ -28,6 +28,13 @@ $(STAMP): pyproject.toml
 
 venv: $(STAMP)
 
+# HouseExpo into data/ (sha256 checked) from the shared copy; users point --from at their own copy or a URL
+HOUSEEXPO := data/houseexpo/json.tar.gz
+$(HOUSEEXPO): $(STAMP)
+	$(VENV)/bin/mcnkit data install houseexpo --from $(SHARED)/houseexpo/json.tar.gz
+
+data: $(HOUSEEXPO)
+
 demo: $(STAMP)
 	$(VENV)/bin/mcnkit demo
 
@@ -40,7 +47,7 @@ typecheck: $(STAMP)
 pytest: $(STAMP)
 	$(PY) -m pytest -q
 
-test: lint typecheck pytest
+test: lint typecheck data pytest
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_io.py
