@@ -39,6 +39,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "eval": ("mcnkit.slam.cli", "add_eval_parser"),
     "simulate": ("mcnkit.datasets.cli", "add_simulate_parser"),
     "data": ("mcnkit.datasets.cli", "add_data_parser"),
+    "train": ("mcnkit.completion.cli", "add_train_parser"),
+    "experiment": ("mcnkit.completion.cli", "add_experiment_parser"),
 }
 
 

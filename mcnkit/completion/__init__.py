@@ -1,0 +1,24 @@
+"""Map completion networks (MCN): U-net and pix2pix generators with spectral normalization, sampling, training,
+checkpoints, scores, the retrieval baseline and Experiment 1."""
+
+from mcnkit.completion.checkpoint import CheckpointError, load_checkpoint, load_generator, save_checkpoint
+from mcnkit.completion.nets import DiscriminatorConfig, PatchDiscriminator, UNet, UNetConfig
+from mcnkit.completion.sample import SampleSet, complete, diversity, sample_completions
+from mcnkit.completion.scores import Scores, score_maps
+
+__all__ = [
+    "CheckpointError",
+    "DiscriminatorConfig",
+    "PatchDiscriminator",
+    "SampleSet",
+    "Scores",
+    "UNet",
+    "UNetConfig",
+    "complete",
+    "diversity",
+    "load_checkpoint",
+    "load_generator",
+    "sample_completions",
+    "save_checkpoint",
+    "score_maps",
+]

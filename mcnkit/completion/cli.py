@@ -1,0 +1,157 @@
+"""``mcnkit train`` and ``mcnkit experiment exp1``: argparse subparsers for the lead's ``mcnkit/cli.py``.
+
+Each command is a function ``(argparse.Namespace) -> exit code``; bad input ends with one line on stderr and
+exit code 2.  ``python -m mcnkit.completion.cli train ...`` runs the same commands without the main CLI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from mcnkit.completion.checkpoint import CheckpointError
+
+__all__ = ["add_experiment_parser", "add_train_parser", "cmd_experiment", "cmd_train", "main"]
+
+EXIT_BAD_INPUT = 2
+
+
+def _fail(command: str, message: object) -> int:
+    print(f"mcnkit {command}: error: {message}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    """``mcnkit train --model unet|pix2pix --out DIR ...`` (torchrun-aware)."""
+    from mcnkit.completion.train import TrainConfig, distributed_train
+
+    try:
+        cfg = TrainConfig(
+            model=args.model,
+            domain=args.domain,
+            out_dir=args.out,
+            n_train=args.n_train,
+            n_val=args.n_val,
+            n_test=args.n_test,
+            epochs=args.epochs,
+            batch_size=args.batch_size,
+            lr=args.lr,
+            seed=args.seed,
+            unknown_weight=args.unknown_weight,
+            recon_weight=args.recon_weight,
+            gan_weight=args.gan_weight,
+            augment=not args.no_augment,
+            base_channels=args.base_channels,
+            max_channels=args.max_channels,
+            depth=args.depth,
+            dropout=args.dropout,
+            max_minutes=args.max_minutes,
+            max_steps=args.max_steps,
+            init_from=args.init_from,
+            resume=args.resume,
+            device=args.device,
+            threads=args.threads,
+            progress=not args.no_progress,
+            houseexpo=args.houseexpo,
+            cache_dir=args.cache,
+        )
+        res = distributed_train(cfg)
+    except (CheckpointError, ValueError) as err:
+        return _fail("train", err)
+    except (FileNotFoundError, PermissionError) as err:
+        return _fail("train", f"{err.filename}: {err.strerror}")
+    if res.best_path is not None:
+        print(
+            f"best: {res.best_path} val F {res.best_val_f:.4f} mIoU {res.best_val_miou:.4f} "
+            f"epochs {res.epochs_done} wall {res.wall_time_s:.0f} s"
+        )
+    return 0
+
+
+def add_train_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Adds ``train``."""
+    p = subparsers.add_parser("train", help="train a map completion network (U-net or pix2pix)")
+    p.add_argument("--model", choices=["unet", "pix2pix"], default="unet")
+    p.add_argument("--domain", choices=["houseexpo", "procedural"], default="houseexpo")
+    p.add_argument("--out", required=True, help="run directory (best.* and last.* checkpoints)")
+    p.add_argument("--n-train", type=int, default=5000)
+    p.add_argument("--n-val", type=int, default=200)
+    p.add_argument("--n-test", type=int, default=1000, help="test pairs built with the split (cache key)")
+    p.add_argument("--epochs", type=int, default=10)
+    p.add_argument("--batch-size", type=int, default=32)
+    p.add_argument("--lr", type=float, default=2e-3)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--unknown-weight", type=float, default=2.0, help="L2 weight on cells unknown in m_t")
+    p.add_argument("--recon-weight", type=float, default=100.0, help="pix2pix: weight of the L2 term")
+    p.add_argument("--gan-weight", type=float, default=1.0, help="pix2pix: weight of the adversarial term")
+    p.add_argument("--no-augment", action="store_true", help="no flips / rot90")
+    p.add_argument("--base-channels", type=int, default=16)
+    p.add_argument("--max-channels", type=int, default=128)
+    p.add_argument("--depth", type=int, default=4)
+    p.add_argument("--dropout", type=float, default=0.2)
+    p.add_argument("--max-minutes", type=float, default=None, help="stop after this wall time (ends the epoch)")
+    p.add_argument("--max-steps", type=int, default=None)
+    p.add_argument("--init-from", default=None, help="initialise the generator from this checkpoint")
+    p.add_argument("--resume", action="store_true", help="continue from OUT/last")
+    p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu, cuda")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    p.add_argument("--houseexpo", default=None, help="json.tar.gz (default: installed, then ../shared/data)")
+    p.add_argument("--cache", default=None, help="pair cache directory (default: <data>/cache/houseexpo-N)")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=cmd_train)
+
+
+def cmd_experiment(args: argparse.Namespace) -> int:
+    """``mcnkit experiment exp1 --out DIR``."""
+    from mcnkit.completion.exp1 import Exp1Config, run_exp1
+
+    try:
+        cfg = Exp1Config(
+            out_dir=args.out,
+            weights_dir=args.weights,
+            n_test=args.n_test,
+            n_train=args.n_train,
+            n_samples=args.samples,
+            seed=args.seed,
+            houseexpo=args.houseexpo,
+            cache_dir=args.cache,
+            threads=args.threads,
+        )
+        table = run_exp1(cfg)
+    except (CheckpointError, ValueError) as err:
+        return _fail("experiment", err)
+    except (FileNotFoundError, PermissionError) as err:
+        return _fail("experiment", f"{err.filename}: {err.strerror}")
+    print(table)
+    return 0
+
+
+def add_experiment_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Adds ``experiment`` with the ``exp1`` experiment."""
+    p = subparsers.add_parser("experiment", help="run a paper experiment (exp1: map completion on HouseExpo)")
+    p.add_argument("name", choices=["exp1"])
+    p.add_argument("--out", required=True, help="output directory (exp1.csv, exp1.md, PNG figures)")
+    p.add_argument("--weights", default=None, help="directory with the checkpoints (default: shipped weights)")
+    p.add_argument("--n-test", type=int, default=100, help="HouseExpo test maps (paper: 100; up to 1000)")
+    p.add_argument("--n-train", type=int, default=16000, help="HouseExpo pair split to read (cache key)")
+    p.add_argument("--samples", type=int, default=4, help="samples per example in the figure")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--houseexpo", default=None)
+    p.add_argument("--cache", default=None)
+    p.add_argument("--threads", type=int, default=2)
+    p.set_defaults(func=cmd_experiment)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``train`` / ``experiment`` standalone (``python -m mcnkit.completion.cli``)."""
+    parser = argparse.ArgumentParser(prog="mcnkit")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_train_parser(sub)
+    add_experiment_parser(sub)
+    args = parser.parse_args(argv)
+    return int(args.func(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

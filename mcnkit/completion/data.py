@@ -1,0 +1,77 @@
+"""Pairs for training and evaluation, as tensors: loading a domain, encoding, dihedral augmentation.
+
+Domains: ``houseexpo`` (the cached Pseudo-SLAM pairs of :mod:`mcnkit.datasets.pairs`, default cache
+``<data>/cache/houseexpo-<n_train>``) and ``procedural`` (procedural apartments with HOME'S masking, built in
+memory).  Augmentation draws one of the 8 symmetries of the square per pair (flip left-right, flip up-down,
+transpose), the same for m_t and m_T, from an injected :class:`torch.Generator`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import torch
+from numpy.typing import NDArray
+
+from mcnkit.datasets import PairConfig, PairSet, PairSplits, load_or_build_houseexpo_pairs, procedural_pairs
+from mcnkit.datasets.houseexpo import default_data_dir, find_houseexpo
+from mcnkit.grid import ternary_to_network
+
+__all__ = ["DOMAINS", "augment_dihedral", "encode", "load_domain_pairs"]
+
+DOMAINS = ("houseexpo", "procedural")
+
+
+def _shared_houseexpo() -> Path | None:
+    env = os.environ.get("MCNKIT_SHARED_DATA")
+    cands = [Path(env) / "houseexpo" / "json.tar.gz"] if env else []
+    cands.append(Path(__file__).resolve().parents[3] / "shared" / "data" / "houseexpo" / "json.tar.gz")
+    return next((c for c in cands if c.is_file()), None)
+
+
+def load_domain_pairs(
+    domain: str,
+    n_train: int,
+    n_val: int = 200,
+    n_test: int = 100,
+    seed: int = 0,
+    houseexpo: str | os.PathLike[str] | None = None,
+    cache_dir: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> PairSplits:
+    """Train/val/test pairs of ``domain``; HouseExpo from ``houseexpo`` (default: installed, then ../shared/data)."""
+    if domain == "procedural":
+        return procedural_pairs(n_train, n_val, n_test, seed=seed)
+    if domain != "houseexpo":
+        raise ValueError(f"unknown domain {domain!r} (choose from {', '.join(DOMAINS)})")
+    source = Path(houseexpo) if houseexpo else (find_houseexpo() or _shared_houseexpo())
+    if source is None or not source.exists():
+        raise FileNotFoundError(2, "HouseExpo not found (install it or pass --houseexpo)", str(source or "houseexpo"))
+    cache = Path(cache_dir) if cache_dir else default_data_dir() / "cache" / f"houseexpo-{n_train}"
+    cfg = PairConfig(n_train=n_train, n_val=n_val, n_test=n_test, seed=seed)
+    splits, _ = load_or_build_houseexpo_pairs(source, cache, cfg, progress=progress)
+    return splits
+
+
+def encode(pairs: PairSet) -> tuple[torch.Tensor, torch.Tensor]:
+    """(network input from m_t, network target from m_T), each (N, 2, H, W) float32."""
+    return torch.from_numpy(ternary_to_network(pairs.partial)), torch.from_numpy(ternary_to_network(pairs.target))
+
+
+def encode_partial(partial: NDArray[np.floating]) -> torch.Tensor:
+    """Network input (N, 2, H, W) from ternary m_t (N, H, W)."""
+    return torch.from_numpy(ternary_to_network(np.asarray(partial, np.float32)))
+
+
+def augment_dihedral(
+    x: torch.Tensor, y: torch.Tensor, generator: torch.Generator | None = None
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The same random symmetry of the square for each (x[i], y[i]); (B, C, H, W) with H = W."""
+    b = x.shape[0]
+    flips = torch.rand((3, b), generator=generator) < 0.5  # (lr, ud, transpose) per pair
+    for k, op in enumerate((lambda t: t.flip(-1), lambda t: t.flip(-2), lambda t: t.transpose(-1, -2))):
+        sel = flips[k].to(x.device).view(b, 1, 1, 1)
+        x, y = torch.where(sel, op(x), x), torch.where(sel, op(y), y)
+    return x, y

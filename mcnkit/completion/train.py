@@ -1,0 +1,312 @@
+"""Training of the completion networks: ``unet`` (L2) and ``pix2pix`` (hinge cGAN + L2), single process or DDP.
+
+* Loss (U-net, the paper's): L2 between the output (image', mask') and the encoding of m_T, per cell weighted
+  ``unknown_weight`` where m_t is unknown and 1 elsewhere (normalized to mean 1).  pix2pix adds the generator's
+  hinge loss from the PatchGAN on (m_t image, :func:`soft_convert` (output)), ``gan_weight`` against
+  ``recon_weight`` × the same L2; the discriminator takes the hinge loss with m_T as the real image.
+* Learning rate: warm-up, then cosine decay over the planned steps; with ``max_minutes`` the decay follows
+  whichever runs out first, steps or time (a run cut by time is then not bit-reproducible on another machine).
+* Each epoch shuffles with a generator seeded by ``(seed, epoch)``; dropout and augmentation draw from a
+  generator seeded by ``(seed, epoch, rank)``: a run is reproducible and a resumed run continues it.
+* Every epoch: validation (deterministic output, free class): F-measure and mIoU on unknown cells;
+  ``OUT/last`` (resumable: optimizer states) and ``OUT/best`` (best ``(F + mIoU) / 2``) checkpoints.
+* Under ``torchrun`` (``WORLD_SIZE`` > 1) the networks are wrapped in DistributedDataParallel (gloo on CPU,
+  nccl on CUDA); each rank takes every ``world``-th pair of the epoch's order; rank 0 validates and saves.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import torch.distributed as dist
+from torch import nn
+from torch.nn.parallel import DistributedDataParallel
+from tqdm import tqdm
+
+from mcnkit.completion.checkpoint import Checkpoint, build_models, load_checkpoint, save_checkpoint
+from mcnkit.completion.data import augment_dihedral, encode, load_domain_pairs
+from mcnkit.completion.nets import DiscriminatorConfig, PatchDiscriminator, UNet, UNetConfig, soft_convert
+from mcnkit.completion.sample import complete
+from mcnkit.completion.scores import score_maps
+from mcnkit.datasets import PairSplits
+
+__all__ = ["TrainConfig", "TrainResult", "select_device", "train", "weighted_l2"]
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything a training run depends on (written into every checkpoint)."""
+
+    model: str = "unet"
+    domain: str = "houseexpo"
+    out_dir: str = "runs/unet"
+    n_train: int = 5000
+    n_val: int = 200
+    n_test: int = 1000
+    epochs: int = 10
+    batch_size: int = 32
+    lr: float = 2e-3
+    lr_discriminator: float = 2e-4
+    seed: int = 0
+    unknown_weight: float = 2.0
+    recon_weight: float = 100.0
+    gan_weight: float = 1.0
+    augment: bool = True
+    base_channels: int = 16
+    max_channels: int = 128
+    depth: int = 4
+    dropout: float = 0.2
+    max_minutes: float | None = None
+    max_steps: int | None = None
+    init_from: str | None = None
+    resume: bool = False
+    device: str = "auto"
+    threads: int = 2
+    progress: bool = True
+    houseexpo: str | None = None
+    cache_dir: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.model not in ("unet", "pix2pix"):
+            raise ValueError(f"model must be unet or pix2pix, got {self.model!r}")
+        if self.epochs < 1 or self.batch_size < 1 or self.n_train < 1:
+            raise ValueError("epochs, batch size and n_train must be positive")
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """Outcome of a run: checkpoints, epochs done, best validation scores, wall time."""
+
+    best_path: Path | None
+    last_path: Path | None
+    epochs_done: int
+    best_val_f: float
+    best_val_miou: float
+    wall_time_s: float
+    history: list[dict[str, float]]
+
+
+def select_device(name: str = "auto") -> torch.device:
+    """``auto`` → CUDA when present (the local rank's GPU under torchrun), else CPU."""
+    if name == "auto":
+        name = "cuda" if torch.cuda.is_available() else "cpu"
+    if name == "cuda":
+        return torch.device("cuda", int(os.environ.get("LOCAL_RANK", "0")))
+    return torch.device(name)
+
+
+def weighted_l2(
+    output: torch.Tensor, target: torch.Tensor, unknown: torch.Tensor, unknown_weight: float
+) -> torch.Tensor:
+    """Mean over cells and channels of w·(output − target)², w = ``unknown_weight`` on unknown cells, 1 elsewhere."""
+    w = 1.0 + (unknown_weight - 1.0) * unknown  # (B, 1, H, W)
+    w = w / w.mean()
+    return ((output - target) ** 2 * w).mean()
+
+
+def _optim_tensors(opt: torch.optim.Optimizer, prefix: str) -> dict[str, torch.Tensor]:
+    out = {}
+    for idx, st in opt.state_dict()["state"].items():
+        for name, v in st.items():
+            out[f"optim.{prefix}.{idx}.{name}"] = torch.as_tensor(v).detach().clone()
+    return out
+
+
+def _load_optim(opt: torch.optim.Optimizer, ckpt: Checkpoint, prefix: str) -> None:
+    sd = opt.state_dict()
+    state: dict[int, dict[str, torch.Tensor]] = {}
+    for key, v in ckpt.section(f"optim.{prefix}").items():
+        idx, name = key.split(".", 1)
+        state.setdefault(int(idx), {})[name] = v
+    sd["state"] = state
+    opt.load_state_dict(sd)
+
+
+def _dist_info() -> tuple[int, int]:
+    if dist.is_available() and dist.is_initialized():
+        return dist.get_rank(), dist.get_world_size()
+    return 0, 1
+
+
+def _validate(gen: UNet, splits: PairSplits, device: torch.device) -> dict[str, float]:
+    pred = complete(gen, splits.val.partial, device=device)
+    s = score_maps(pred, splits.val.target, splits.val.partial, "free")
+    return {"val_f": s.f_measure, "val_miou": s.miou_unknown, "val_acc": s.accuracy}
+
+
+def _lr_factor(step: int, total: int, time_fraction: float = 0.0) -> float:
+    """Linear warm-up, then cosine to 5 % over the steps — or over the time budget when that runs out first."""
+    warm = min(200, max(total // 20, 1))
+    if step < warm:
+        return (step + 1) / warm
+    progress = max((step - warm) / max(total - warm, 1), time_fraction)
+    return 0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
+
+
+def _build(cfg: TrainConfig, size: int) -> tuple[UNet, PatchDiscriminator | None]:
+    gcfg = UNetConfig(
+        base_channels=cfg.base_channels, max_channels=cfg.max_channels, depth=cfg.depth, dropout=cfg.dropout, size=size
+    )
+    gen = UNet(gcfg)
+    disc = PatchDiscriminator(DiscriminatorConfig()) if cfg.model == "pix2pix" else None
+    if cfg.init_from:
+        src = load_checkpoint(cfg.init_from)
+        gen.load_state_dict(build_models(src, cfg.init_from)[0].state_dict())
+    return gen, disc
+
+
+def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
+    """Trains per ``cfg`` (loading the pairs unless ``splits`` is given); see the module docstring."""
+    t_start = time.perf_counter()
+    torch.set_num_threads(max(1, cfg.threads))
+    rank, world = _dist_info()
+    device = select_device(cfg.device)
+    if splits is None:
+        splits = load_domain_pairs(
+            cfg.domain,
+            cfg.n_train,
+            cfg.n_val,
+            cfg.n_test,
+            cfg.seed,
+            cfg.houseexpo,
+            cfg.cache_dir,
+            cfg.progress and rank == 0,
+        )
+    out = Path(cfg.out_dir)
+    size = splits.train.partial.shape[-1]
+    torch.manual_seed(cfg.seed)
+    gen, disc = _build(cfg, size)
+    gen.to(device)
+    if disc is not None:
+        disc.to(device)
+    opt_g = torch.optim.Adam(gen.parameters(), lr=cfg.lr, betas=(0.5, 0.999))
+    opt_d = torch.optim.Adam(disc.parameters(), lr=cfg.lr_discriminator, betas=(0.0, 0.9)) if disc is not None else None
+    start_epoch, best, history, wall_before = 0, -1.0, [], 0.0
+    best_f = best_miou = float("nan")
+    if cfg.resume and (out / "last.json").is_file():
+        ck = load_checkpoint(out / "last", cfg.model)
+        g2, d2 = build_models(ck, out / "last")
+        gen.load_state_dict(g2.state_dict())
+        if disc is not None and d2 is not None:
+            disc.load_state_dict(d2.state_dict())
+        _load_optim(opt_g, ck, "g")
+        if opt_d is not None:
+            _load_optim(opt_d, ck, "d")
+        start_epoch = int(ck.info["epoch"]) + 1
+        best, history = float(ck.info["best_score"]), list(ck.info.get("history", []))
+        best_f, best_miou = float(ck.info.get("best_val_f", "nan")), float(ck.info.get("best_val_miou", "nan"))
+        wall_before = float(ck.info.get("wall_time_s", 0.0))
+    g_model: nn.Module = gen
+    d_model: nn.Module | None = disc
+    if world > 1:
+        g_model = DistributedDataParallel(gen, device_ids=[device.index] if device.type == "cuda" else None)
+        if disc is not None:
+            d_model = DistributedDataParallel(disc, device_ids=[device.index] if device.type == "cuda" else None)
+    x_all, y_all = encode(splits.train)
+    n = len(x_all)
+    steps_per_epoch = math.ceil(len(range(rank, n, world)) / cfg.batch_size)
+    total_steps = steps_per_epoch * cfg.epochs
+    step, stop, epoch = start_epoch * steps_per_epoch, False, start_epoch - 1
+    last_path: Path | None = None
+    for epoch in range(start_epoch, cfg.epochs):
+        gen.train()
+        order = torch.randperm(n, generator=torch.Generator().manual_seed(cfg.seed * 100_003 + epoch))[rank::world]
+        rng = torch.Generator().manual_seed(int(np.random.SeedSequence([cfg.seed, epoch, rank]).generate_state(1)[0]))
+        torch.manual_seed(int(rng.initial_seed()))
+        bar = tqdm(
+            range(steps_per_epoch), desc=f"epoch {epoch + 1}/{cfg.epochs}", disable=not (cfg.progress and rank == 0)
+        )
+        losses = []
+        for i in bar:
+            idx = order[i * cfg.batch_size : (i + 1) * cfg.batch_size]
+            x, y = x_all[idx], y_all[idx]
+            if cfg.augment:
+                x, y = augment_dihedral(x, y, rng)
+            x, y = x.to(device), y.to(device)
+            elapsed_min = (time.perf_counter() - t_start) / 60
+            time_fraction = elapsed_min / cfg.max_minutes if cfg.max_minutes else 0.0
+            for group in opt_g.param_groups:
+                group["lr"] = cfg.lr * _lr_factor(step, total_steps, time_fraction)
+            unknown = x[:, 1:2]
+            fake = g_model(x)
+            loss = (
+                cfg.recon_weight * weighted_l2(fake, y, unknown, cfg.unknown_weight)
+                if disc
+                else weighted_l2(fake, y, unknown, cfg.unknown_weight)
+            )
+            if d_model is not None and opt_d is not None:
+                real_logits = d_model(x[:, :1], y[:, :1])
+                fake_logits = d_model(x[:, :1], soft_convert(fake.detach()))
+                loss_d = torch.relu(1 - real_logits).mean() + torch.relu(1 + fake_logits).mean()
+                opt_d.zero_grad(set_to_none=True)
+                loss_d.backward()
+                opt_d.step()
+                loss = loss - cfg.gan_weight * d_model(x[:, :1], soft_convert(fake)).mean()
+            opt_g.zero_grad(set_to_none=True)
+            loss.backward()
+            opt_g.step()
+            losses.append(float(loss.detach()))
+            step += 1
+            if i % 20 == 0:
+                bar.set_postfix(loss=f"{np.mean(losses[-20:]):.4f}")
+            over_time = cfg.max_minutes is not None and elapsed_min > cfg.max_minutes
+            if over_time or (cfg.max_steps is not None and step >= cfg.max_steps):
+                stop = True
+                break
+        bar.close()
+        if rank == 0:
+            gen.eval()
+            rec: dict[str, float] = {
+                "epoch": epoch,
+                "train_loss": float(np.mean(losses)),
+                **_validate(gen, splits, device),
+            }
+            rec["wall_time_s"] = wall_before + time.perf_counter() - t_start
+            history.append(rec)
+            score = (rec["val_f"] + rec["val_miou"]) / 2
+            if cfg.progress:
+                tqdm.write(
+                    f"epoch {epoch + 1}: loss {rec['train_loss']:.4f} val F {rec['val_f']:.4f} "
+                    f"mIoU {rec['val_miou']:.4f} ({rec['wall_time_s']:.0f} s)"
+                )
+            info: dict[str, Any] = {
+                "epoch": epoch,
+                "train_config": asdict(cfg),
+                "history": history,
+                "n_train_pairs": n,
+                "wall_time_s": rec["wall_time_s"],
+                "steps": step,
+            }
+            if score > best:
+                best, best_f, best_miou = score, rec["val_f"], rec["val_miou"]
+                save_checkpoint(out / "best", cfg.model, gen, disc, {**info, "val_f": best_f, "val_miou": best_miou})
+            extra = _optim_tensors(opt_g, "g") | (_optim_tensors(opt_d, "d") if opt_d is not None else {})
+            info |= {"best_score": best, "best_val_f": best_f, "best_val_miou": best_miou}
+            last_path = save_checkpoint(out / "last", cfg.model, gen, disc, info, extra)
+        if world > 1:
+            dist.barrier()
+        if stop:
+            break
+    best_path = out / "best.safetensors" if rank == 0 and (out / "best.safetensors").is_file() else None
+    return TrainResult(
+        best_path, last_path, epoch + 1, best_f, best_miou, wall_before + time.perf_counter() - t_start, history
+    )
+
+
+def distributed_train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
+    """:func:`train` inside a process group when launched by torchrun (``WORLD_SIZE`` > 1), else plain."""
+    if int(os.environ.get("WORLD_SIZE", "1")) <= 1 or dist.is_initialized():
+        return train(cfg, splits)
+    backend = "nccl" if select_device(cfg.device).type == "cuda" else "gloo"
+    dist.init_process_group(backend)
+    try:
+        return train(replace(cfg, progress=cfg.progress and dist.get_rank() == 0), splits)
+    finally:
+        dist.destroy_process_group()
