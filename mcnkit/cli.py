@@ -16,10 +16,16 @@ from typing import TextIO
 from mcnkit import __version__
 from mcnkit.io.errors import LogError
 
-__all__ = ["main"]
+__all__ = ["EXIT_BAD_INPUT", "fail", "main"]
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+
+
+def fail(command: str, message: object) -> int:
+    """Reports bad input the way every subcommand does: one line on stderr; returns the exit code (2)."""
+    print(f"mcnkit {command}: error: {message}", file=sys.stderr)
+    return EXIT_BAD_INPUT
 
 
 def _show_warning(
@@ -69,11 +75,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except LogError as err:
-        print(f"mcnkit {args.command}: error: {err}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return fail(args.command, err)
     except (FileNotFoundError, IsADirectoryError, PermissionError) as err:
-        print(f"mcnkit {args.command}: error: {err.filename}: {err.strerror}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return fail(args.command, f"{err.filename}: {err.strerror}")
     except KeyboardInterrupt:
         print(f"mcnkit {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

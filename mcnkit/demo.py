@@ -19,7 +19,7 @@ import numpy as np
 from tqdm import tqdm
 
 from mcnkit.io import open_log
-from mcnkit.io.cli import _print_info, describe
+from mcnkit.io.cli import describe, print_info
 from mcnkit.metrics import absolute_trajectory_error, write_tum
 from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
 from mcnkit.slam import FastSlam, SlamConfig
@@ -54,7 +54,7 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
     log_path = write_sim_log(sim, out / "apartment.mcap", "mcap", overwrite=True)
     print(f"[2/4] wrote {log_path}")
     with open_log(log_path) as log:
-        _print_info(describe(log))
+        print_info(describe(log))
         frames = list(log.frames())
     print(f"[3/4] grid FastSLAM with {particles} particles, recording every step to {rrd}")
     slam = FastSlam(SlamConfig(n_particles=particles), np.random.default_rng(seed))

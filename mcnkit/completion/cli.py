@@ -10,16 +10,11 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from mcnkit.cli import fail
 from mcnkit.completion.checkpoint import CheckpointError
 
 __all__ = ["add_experiment_parser", "add_train_parser", "cmd_experiment", "cmd_train", "main"]
 
-EXIT_BAD_INPUT = 2
-
-
-def _fail(command: str, message: object) -> int:
-    print(f"mcnkit {command}: error: {message}", file=sys.stderr)
-    return EXIT_BAD_INPUT
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -58,9 +53,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         )
         res = distributed_train(cfg)
     except (CheckpointError, ValueError) as err:
-        return _fail("train", err)
+        return fail("train", err)
     except (FileNotFoundError, PermissionError) as err:
-        return _fail("train", f"{err.filename}: {err.strerror}")
+        return fail("train", f"{err.filename}: {err.strerror}")
     if res.best_path is not None:
         print(
             f"best: {res.best_path} val F {res.best_val_f:.4f} mIoU {res.best_val_miou:.4f} "
@@ -120,9 +115,9 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         )
         table = run_exp1(cfg)
     except (CheckpointError, ValueError) as err:
-        return _fail("experiment", err)
+        return fail("experiment", err)
     except (FileNotFoundError, PermissionError) as err:
-        return _fail("experiment", f"{err.filename}: {err.strerror}")
+        return fail("experiment", f"{err.filename}: {err.strerror}")
     print(table)
     return 0
 

@@ -15,18 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
+from mcnkit.cli import fail
 from mcnkit.datasets.houseexpo import HOUSEEXPO_SHA256, default_data_dir, find_houseexpo, install_houseexpo
 from mcnkit.datasets.pairs import PairConfig, PairSet, load_or_build_houseexpo_pairs, pair_stats, procedural_pairs
 from mcnkit.io.errors import LogError
 
 __all__ = ["add_data_parser", "add_simulate_parser", "cmd_examples", "cmd_install", "cmd_pairs", "cmd_simulate"]
 
-EXIT_BAD_INPUT = 2
-
-
-def _fail(command: str, message: object) -> int:
-    print(f"mcnkit {command}: error: {message}", file=sys.stderr)
-    return EXIT_BAD_INPUT
 
 
 def _houseexpo_source(args: argparse.Namespace) -> Path | None:
@@ -38,7 +33,7 @@ def cmd_install(args: argparse.Namespace) -> int:
     try:
         target = install_houseexpo(args.source, args.dest, args.sha256)
     except (OSError, ValueError) as exc:
-        return _fail("data install", exc)
+        return fail("data install", exc)
     print(f"installed {target}")
     return 0
 
@@ -74,13 +69,13 @@ def cmd_pairs(args: argparse.Namespace) -> int:
         else:
             source = _houseexpo_source(args)
             if source is None:
-                return _fail("data pairs", "HouseExpo not installed; run `mcnkit data install houseexpo --from ...`")
+                return fail("data pairs", "HouseExpo not installed; run `mcnkit data install houseexpo --from ...`")
             cfg = PairConfig(n_train=args.train, n_val=args.val, n_test=args.test, seed=args.seed)
             splits, rebuilt = load_or_build_houseexpo_pairs(
                 source, args.out, cfg, args.train_list, args.test_list, progress=not args.no_progress
             )
     except (OSError, ValueError) as exc:
-        return _fail("data pairs", exc)
+        return fail("data pairs", exc)
     report = {
         "domain": args.domain,
         "rebuilt": rebuilt,
@@ -113,7 +108,7 @@ def cmd_examples(args: argparse.Namespace) -> int:
             print("mcnkit data examples: HouseExpo not installed, drawing the procedural domain only", file=sys.stderr)
         rows.append(("procedural (HOME'S masking)", procedural_pairs(0, 0, args.n, args.seed).test))
     except (OSError, ValueError) as exc:
-        return _fail("data examples", exc)
+        return fail("data examples", exc)
     n = args.n
     fig, axes = plt.subplots(len(rows) * 3, n, figsize=(1.6 * n, 1.7 * 3 * len(rows)), squeeze=False)
     for d, (title, pairs) in enumerate(rows):
@@ -193,7 +188,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         result = simulate(raster, cfg, args.seed)
         path = write_sim_log(result, args.out, args.format, overwrite=args.overwrite)
     except (OSError, ValueError, LogError) as exc:
-        return _fail("simulate", exc)
+        return fail("simulate", exc)
     gt = result.ground_truth.poses
     odo_end = result.odometry.poses[-1]
     print(

@@ -16,7 +16,7 @@ from mcnkit.io.content import FORMATS, LogContent
 from mcnkit.io.open import open_log
 from mcnkit.io.writers import infer_format, write_log
 
-__all__ = ["add_convert_parser", "add_info_parser", "describe"]
+__all__ = ["add_convert_parser", "add_info_parser", "describe", "print_info"]
 
 
 def _add_source_options(p: argparse.ArgumentParser) -> None:
@@ -58,7 +58,8 @@ def _stamp_text(ns: int) -> str:
     return f"{ns / 1e9:.3f} s (relative)"
 
 
-def _print_info(info: dict[str, Any]) -> None:
+def print_info(info: dict[str, Any]) -> None:
+    """Prints :func:`describe`'s dict as ``mcnkit info`` shows it."""
     print(f"file      {info['path']}")
     print(f"format    {info['format']}")
     print(f"start     {_stamp_text(info['start_ns'])}")
@@ -83,7 +84,7 @@ def _info(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(info, indent=2))
     else:
-        _print_info(info)
+        print_info(info)
     return 0
 
 
