@@ -23,12 +23,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from mcnkit.types import FREE, OCCUPIED, UNKNOWN
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, TernaryMap
 
 __all__ = [
     "log_odds_to_ternary",
     "network_to_ternary",
     "pad_to_square",
+    "pool_to_window",
     "probabilities_to_ternary",
     "resize_ternary",
     "ternary_to_network",
@@ -118,3 +119,25 @@ def resize_ternary(image: NDArray[np.floating], size: int | tuple[int, int] = 64
     out_h, out_w = (size, size) if isinstance(size, int) else size
     ranks = _resize_axis(_resize_axis(_ranks(image), out_h, 0), out_w, 1)
     return _VALUE_OF_RANK[ranks]
+
+
+def pool_to_window(ternary: TernaryMap, window: GridSpec, outside: float = UNKNOWN) -> F32:
+    """A placed ternary map resampled onto another grid ``window`` (both in metres): each window cell takes the
+    highest-priority label (occupied > free > unknown) of the map cells whose centres fall in it; window cells
+    that no map cell reaches get ``outside`` (e.g. ``OCCUPIED`` for a floor plan's exterior)."""
+    if ternary.spec is None:
+        raise ValueError("pool_to_window needs a map placed in the world (TernaryMap.spec)")
+    spec = ternary.spec
+    xs = spec.origin_x_m + (np.arange(spec.width) + 0.5) * spec.resolution_m
+    ys = spec.origin_y_m + (np.arange(spec.height) + 0.5) * spec.resolution_m
+    cols = np.floor((xs - window.origin_x_m) / window.resolution_m).astype(np.int64)
+    rows = np.floor((ys - window.origin_y_m) / window.resolution_m).astype(np.int64)
+    col_in = (cols >= 0) & (cols < window.width)
+    row_in = (rows >= 0) & (rows < window.height)
+    ranks = _ranks(np.asarray(ternary.image, np.float32))[np.ix_(row_in, col_in)]
+    out = np.full(window.shape, -1, np.int8)
+    rr, cc = np.meshgrid(rows[row_in], cols[col_in], indexing="ij")
+    np.maximum.at(out, (rr.ravel(), cc.ravel()), ranks.ravel())
+    values = _VALUE_OF_RANK[np.maximum(out, 0)]
+    values[out < 0] = outside
+    return values

@@ -20,6 +20,7 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,9 +35,11 @@ from mcnkit.slam.resample import effective_sample_size, low_variance_resample, n
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
-__all__ = ["FastSlam", "SlamStep", "counts_to_grid"]
+__all__ = ["FastSlam", "LogLikelihoodHook", "SlamStep", "counts_to_grid"]
 
 F64 = NDArray[np.float64]
+LogLikelihoodHook = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+"""``hook(poses (N, 3), end_points_base (M, 2)) -> (N,)`` extra log-likelihood per particle at a filter update."""
 
 
 @dataclass(frozen=True)
@@ -112,6 +115,29 @@ class FastSlam:
         self._scan_ranges: list[NDArray[np.float32]] = []  # every scan, for trajectory(mode="matched")
         self._scan_online: list[F64] = []  # the online pose of every scan (see SlamConfig.track_every_scan)
         self._scan_tracked: list[F64] = []  # that pose relative to the best particle's last update pose
+        self.extra_log_likelihood: LogLikelihoodHook | None = None
+        """Optional term added to every particle's log-weight at each filter update, after scan matching and
+        before normalisation (MCN-SLAM's completion-based weighting uses it); None: gmapping's weights only."""
+
+    @property
+    def lidar(self) -> LidarSpec | None:
+        """The scanner of the first frame (None before it)."""
+        return self._lidar
+
+    @property
+    def update_ranges(self) -> Sequence[NDArray[np.float32]]:
+        """The ranges of every filter-update scan so far, in order (do not modify)."""
+        return self._update_ranges
+
+    def ranking(self) -> NDArray[np.int64]:
+        """Particle indices from the best (highest log-likelihood over its ancestry) to the worst."""
+        return np.argsort(-self.log_weight_sums, kind="stable")
+
+    def beam_limits(self) -> tuple[float, float]:
+        """``(max_range_m, max_usable_range_m)`` of the beams used (needs the first frame)."""
+        if self._lidar is None:
+            raise RuntimeError("no scan processed yet")
+        return self._ranges(self._lidar)
 
     @property
     def best_index(self) -> int:
@@ -203,8 +229,11 @@ class FastSlam:
         if not first:
             match = match_particles(self.maps, self.poses, end_b, back_b, cfg)
             self.poses = match.poses
-            self.log_weights += match.log_likelihoods
-            self.log_weight_sums += match.log_likelihoods
+            extra = match.log_likelihoods
+            if self.extra_log_likelihood is not None:
+                extra = extra + np.asarray(self.extra_log_likelihood(self.poses, end_b), np.float64)
+            self.log_weights += extra
+            self.log_weight_sums += extra
             scores = match.scores
         weights = normalize_log_weights(self.log_weights, cfg.gain)
         self.neff = effective_sample_size(weights)
