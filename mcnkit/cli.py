@@ -42,6 +42,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "info": ("mcnkit.io.cli", "add_info_parser"),
     "convert": ("mcnkit.io.cli", "add_convert_parser"),
     "slam": ("mcnkit.slam.cli", "add_slam_parser"),
+    "run": ("mcnkit.run", "add_run_parser"),
     "eval": ("mcnkit.slam.cli", "add_eval_parser"),
     "simulate": ("mcnkit.datasets.cli", "add_simulate_parser"),
     "data": ("mcnkit.datasets.cli", "add_data_parser"),

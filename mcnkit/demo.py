@@ -1,10 +1,12 @@
-"""``mcnkit demo``: the whole pipeline that exists, on embedded data (no download).
+"""``mcnkit demo``: MCN-SLAM end to end on embedded data (no download, shipped network weights).
 
 1. simulate a robot exploring a procedurally generated apartment (lidar + drifting odometry + ground truth);
 2. write it as a ROS2-profile MCAP log and show ``mcnkit info`` of it;
-3. run grid FastSLAM on the log, recording every step to a Rerun file (``demo.rrd``), and write the
-   trajectory (TUM) and the map (PGM/YAML/PNG);
-4. score the SLAM trajectory and the raw odometry against the ground truth (ATE).
+3. run MCN-SLAM on the log: grid FastSLAM, and at every filter update K sampled completions of the R best
+   particles' maps by the shipped U-net, every step recorded to a Rerun file (``recordings/demo.rrd``);
+   write the trajectory (TUM), the map (PGM/YAML/PNG) and the last completions (PNG);
+4. score against the ground truth: trajectory (ATE, SLAM vs raw odometry) and map completion (F of the free
+   space, SLAM map vs completed map, at the first and the last filter update).
 """
 
 from __future__ import annotations
@@ -16,35 +18,44 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
+import torch
 
 from mcnkit.io import open_log
 from mcnkit.io.cli import describe, print_info
+from mcnkit.mcn import McnConfig, McnSlam, StepResult, load_model
 from mcnkit.metrics import absolute_trajectory_error, write_tum
+from mcnkit.plots import completion_figure
+from mcnkit.run import run_mcn
 from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
-from mcnkit.slam import FastSlam, SlamConfig
+from mcnkit.slam import SlamConfig
 from mcnkit.slam.cli import write_map
-from mcnkit.types import TernaryMap
-from mcnkit.viz import RerunLogger
+from mcnkit.types import Frame, TernaryMap
 
 __all__ = ["DemoResult", "add_demo_parser", "run_demo"]
 
 
 @dataclass(frozen=True)
 class DemoResult:
-    """Where the demo wrote its files and how well SLAM did."""
+    """Where the demo wrote its files and how well MCN-SLAM did."""
 
     log_path: Path
     rrd_path: Path
     map_png: Path
+    completion_png: Path
     scans: int
+    filter_updates: int
     ate_slam_m: float
     ate_odometry_m: float
+    f_slam_first: float
+    f_completed_first: float
+    f_slam_last: float
+    f_completed_last: float
     wall_s: float
 
 
 def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particles: int = 30,
-             duration_s: float = 120.0, progress: bool = True) -> DemoResult:
+             duration_s: float = 120.0, samples: int = 4, ranks: int = 2, model: str = "unet",
+             progress: bool = True) -> DemoResult:
     """Simulates, records and scores one run (see the module docstring)."""
     t0 = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
@@ -56,40 +67,50 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
     with open_log(log_path) as log:
         print_info(describe(log))
         frames = list(log.frames())
-    print(f"[3/4] grid FastSLAM with {particles} particles, recording every step to {rrd}")
-    slam = FastSlam(SlamConfig(n_particles=particles), np.random.default_rng(seed))
-    with RerunLogger(rrd, recording_id=f"demo-apartment{apartment}-seed{seed}") as viz:
-        viz.log_ground_truth(TernaryMap(np.where(raster.free, 0.0, 1.0).astype(np.float32), raster.grid))
-        for frame in tqdm(frames, unit="scan", disable=not progress):
-            step = slam.step(frame)
-            viz.log_slam_step(frame, step, slam.trajectory().poses[:, :2] if step.updated else None)
-            if step.updated:
-                viz.log_map("/world/map/estimate", slam.best_ternary(), mask=True)
-    write_tum(out / "trajectory.tum", slam.trajectory())
-    write_map(slam.best_map(), out)
-    ate_slam = absolute_trajectory_error(slam.trajectory(), sim.ground_truth)
+    truth = TernaryMap(np.where(raster.free, 0.0, 1.0).astype(np.float32), raster.grid)
+    print(f"[3/4] MCN-SLAM: {particles} particles, {samples} completions of the {ranks} best maps per filter "
+          f"update ({model}), recording every step to {rrd}")
+    mcn = McnSlam(SlamConfig(n_particles=particles), load_model(model), McnConfig(samples=samples, ranks=ranks),
+                  np.random.default_rng(seed), generator=torch.Generator().manual_seed(seed), ground_truth=truth)
+    last: list[StepResult] = []
+
+    def keep_last(_frame: Frame, result: StepResult) -> None:
+        if result.completion is not None:
+            last[:] = [result]
+
+    summary = run_mcn(frames, mcn, rrd=rrd, recording_id=f"demo-apartment{apartment}-seed{seed}",
+                      ground_truth=truth, progress=progress, on_step=keep_last)
+    write_tum(out / "trajectory.tum", mcn.slam.trajectory())
+    write_map(mcn.slam.best_map(), out)
+    completion_png = out / "completion.png"
+    if last and last[0].completion is not None:
+        completion_figure(last[0].completion).savefig(completion_png, dpi=100)
+    ate_slam = absolute_trajectory_error(mcn.slam.trajectory(), sim.ground_truth)
     ate_odom = absolute_trajectory_error(sim.odometry, sim.ground_truth)
-    result = DemoResult(log_path, rrd, out / "map.png", len(frames), ate_slam.rmse_m, ate_odom.rmse_m,
-                        time.perf_counter() - t0)
+    first, final = summary.scores[0], summary.scores[-1]
+    result = DemoResult(log_path, rrd, out / "map.png", completion_png, summary.scans, summary.filter_updates,
+                        ate_slam.rmse_m, ate_odom.rmse_m, first["f_slam"], first["f_completed"], final["f_slam"],
+                        final["f_completed"], time.perf_counter() - t0)
     (out / "demo.json").write_text(json.dumps({k: str(v) if isinstance(v, Path) else v
                                                for k, v in result.__dict__.items()}, indent=2) + "\n")
-    print(f"[4/4] trajectory error against ground truth (ATE RMSE): SLAM {ate_slam.rmse_m:.3f} m, "
-          f"odometry alone {ate_odom.rmse_m:.3f} m ({len(frames)} scans, {slam.n_updates} filter updates, "
-          f"{result.wall_s:.1f} s)")
+    print(f"[4/4] against the ground truth: trajectory ATE RMSE {ate_slam.rmse_m:.3f} m (odometry alone "
+          f"{ate_odom.rmse_m:.3f} m); free-space F at the first update {first['f_slam']:.3f} (SLAM map) -> "
+          f"{first['f_completed']:.3f} (completed), at the last {final['f_slam']:.3f} -> {final['f_completed']:.3f}"
+          f"  ({summary.scans} scans, {summary.filter_updates} filter updates, {result.wall_s:.1f} s)")
     return result
 
 
 def _main(args: argparse.Namespace) -> int:
     result = run_demo(args.out, args.rrd, apartment=args.apartment, seed=args.seed, particles=args.particles,
-                      duration_s=args.duration_s)
-    print(f"\nrecording: {result.rrd_path}   map: {result.map_png}   log: {result.log_path}")
+                      duration_s=args.duration_s, samples=args.samples, ranks=args.ranks, model=args.model)
+    print(f"\nrecording: {result.rrd_path}   map: {result.map_png}   completions: {result.completion_png}")
     print(f"watch it:  .venv/bin/rerun {result.rrd_path}        (or open it in notebooks/01_quickstart.ipynb)")
     return 0
 
 
 def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit demo``."""
-    p = sub.add_parser("demo", help="simulate an apartment, run SLAM on its log, record it for Rerun (no dataset)",
+    p = sub.add_parser("demo", help="simulate an apartment, run MCN-SLAM on its log, record it for Rerun (no dataset)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=Path("recordings/demo"), help="output folder (default recordings/demo)")
     p.add_argument("--rrd", type=Path, default=Path("recordings/demo.rrd"), help="the Rerun recording")
@@ -97,4 +118,7 @@ def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--seed", type=int, default=0, help="random seed of the robot run and the filter")
     p.add_argument("--particles", type=int, default=30, help="SLAM particles (default 30)")
     p.add_argument("--duration-s", type=float, default=120.0, help="simulated seconds at most (default 120)")
+    p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")
+    p.add_argument("--ranks", type=int, default=2, help="R best particles completed (default 2)")
+    p.add_argument("--model", default="unet", help="unet, pix2pix or a checkpoint path (default unet)")
     p.set_defaults(func=_main)

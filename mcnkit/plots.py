@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.colors import ListedColormap
+from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from mcnkit.types import TernaryMap
 
-__all__ = ["TERNARY_CMAP", "plot_slam_state", "plot_ternary"]
+if TYPE_CHECKING:
+    from mcnkit.mcn import Completion
+
+__all__ = ["TERNARY_CMAP", "completion_figure", "plot_slam_state", "plot_ternary"]
 
 # free 0.0 -> light, unknown 0.5 -> grey, occupied 1.0 -> black (the viewer's AnnotationContext colours)
 TERNARY_CMAP = ListedColormap([(235 / 255,) * 3, (128 / 255,) * 3, (20 / 255,) * 3])
@@ -46,3 +52,32 @@ def plot_slam_state(
     ax.set_aspect("equal")
     if title:
         ax.set_title(title)
+
+
+def completion_figure(completion: Completion, ranks: int | None = None, truth: TernaryMap | None = None) -> Figure:
+    """One row per particle rank: its m_t, its K sampled completions, their uncertainty (and the ground truth
+    on the same window when given, first row only)."""
+    r_n = completion.samples.shape[0] if ranks is None else min(ranks, completion.samples.shape[0])
+    k_n = completion.samples.shape[1]
+    cols = k_n + 2 + (truth is not None)
+    fig = Figure(figsize=(2.2 * cols, 2.3 * r_n), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(r_n, cols, squeeze=False))
+    for r in range(r_n):
+        plot_ternary(axes[r, 0], completion.partial_map(r), f"rank {r}: m_t")
+        for k in range(k_n):
+            plot_ternary(axes[r, 1 + k], completion.sample_map(r, k), f"sample {k}")
+        w = completion.windows[r]
+        extent = (w.origin_x_m, w.origin_x_m + w.width * w.resolution_m,
+                  w.origin_y_m, w.origin_y_m + w.height * w.resolution_m)
+        axes[r, k_n + 1].imshow(completion.uncertainty[r], origin="lower", cmap="magma", vmin=0, vmax=1,
+                                extent=extent, interpolation="nearest")
+        axes[r, k_n + 1].set_title("uncertainty")
+        if truth is not None:
+            if r == 0:
+                plot_ternary(axes[r, -1], truth, "ground truth")
+            else:
+                axes[r, -1].axis("off")
+    for ax in axes.ravel():
+        ax.set_xticks([])
+        ax.set_yticks([])
+    return fig

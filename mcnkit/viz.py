@@ -16,7 +16,12 @@ Entities:
 | ``/world/robot/pose`` | best particle's pose (arrow) |
 | ``/world/robot/trajectory``, ``/world/robot/odom_path`` | best trajectory so far, raw odometry path |
 | ``/world/scan/hits`` | scan end points seen from the best pose |
-| ``/metrics/n_eff``, ``/metrics/particles_resampled`` | scalars |
+| ``/metrics/n_eff`` | effective sample size (scalar) |
+| ``/world/mcn/rank{r}/partial`` | MCN-SLAM: m_t of the r-th best particle on the network's window (in metres) |
+| ``/world/mcn/rank{r}/sample{k}`` | its k-th sampled completion |
+| ``/world/mcn/rank{r}/mean``, ``…/uncertainty`` | the mean completion; per-cell entropy of the samples (image) |
+| ``/world/mcn/rank{r}/particle`` | that particle's pose |
+| ``/metrics/f_slam``, ``/metrics/f_completed``, ``/metrics/miou_unknown``, ``/metrics/sample_diversity`` | scalars |
 | ``/log`` | filter updates and resampling events (TextLog) |
 
 The logger is a context manager: leaving it, normally or by an exception (Ctrl-C included), flushes and
@@ -28,7 +33,7 @@ from __future__ import annotations
 import uuid
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rerun as rr
@@ -37,9 +42,12 @@ from numpy.typing import NDArray
 
 from mcnkit.geometry import transform_points
 from mcnkit.slam.fastslam import SlamStep
-from mcnkit.types import Frame, TernaryMap
+from mcnkit.types import Frame, GridSpec, TernaryMap
 
-__all__ = ["APPLICATION_ID", "RerunLogger", "recording_viewer", "slam_blueprint"]
+if TYPE_CHECKING:
+    from mcnkit.mcn import StepResult
+
+__all__ = ["APPLICATION_ID", "RerunLogger", "mcn_blueprint", "recording_viewer", "slam_blueprint"]
 
 APPLICATION_ID = "mcnkit"
 _CLASSES = [(0, "free", (235, 235, 235)), (1, "unknown", (128, 128, 128)), (2, "occupied", (20, 20, 20))]
@@ -61,6 +69,50 @@ def slam_blueprint() -> rrb.Blueprint:
         ),
         rrb.TimePanel(timeline="step", expanded=True),
         collapse_panels=False,
+    )
+
+
+_METRICS = {"f_slam": ((120, 120, 120), "F, SLAM map"), "f_completed": ((220, 60, 30), "F, completed"),
+            "miou_unknown": ((30, 150, 60), "mIoU unknown cells"), "sample_diversity": ((150, 60, 200), "diversity")}
+
+
+def _map_view(name: str, entity: str, *extra: str) -> rrb.Spatial2DView:
+    return rrb.Spatial2DView(name=name, origin="/", contents=[f"+ {entity}/**", *(f"+ {e}" for e in extra)])
+
+
+def mcn_blueprint(ranks: int, samples: int) -> rrb.Blueprint:
+    """MCN-SLAM layout from (R, K): the SLAM view and metrics on the left; on the right one row per particle
+    rank ``#r`` with its m_t, its K sampled completions ``s0…`` and their uncertainty; ground truth and events
+    in tabs.  The blueprint and selection panels start collapsed (room for the views)."""
+    rows = []
+    for r in range(ranks):
+        base = f"/world/mcn/rank{r}"
+        robot = f"{base}/particle"
+        views = [_map_view(f"#{r} m_t", f"{base}/partial", robot)]
+        views += [_map_view(f"#{r} s{k}", f"{base}/sample{k}", robot) for k in range(samples)]
+        views.append(_map_view(f"#{r} unc.", f"{base}/uncertainty", robot))
+        rows.append(rrb.Horizontal(*views))
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(
+                rrb.Spatial2DView(name="SLAM", origin="/",
+                                  contents=["+ /world/**", "- /world/map/gt/**", "- /world/mcn/**"]),
+                rrb.Horizontal(
+                    rrb.TimeSeriesView(name="scores", origin="/metrics", contents=["+ /metrics/**", "- /metrics/n_eff"]),
+                    rrb.TimeSeriesView(name="N_eff", origin="/metrics/n_eff"),
+                ),
+                row_shares=[3, 1],
+            ),
+            rrb.Vertical(
+                *rows,
+                rrb.Tabs(rrb.Spatial2DView(name="ground truth", origin="/", contents=["+ /world/map/gt/**"]),
+                         rrb.TextLogView(name="events", origin="/log")),
+            ),
+            column_shares=[2, 3],
+        ),
+        rrb.TimePanel(timeline="step", expanded=True),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
     )
 
 
@@ -88,6 +140,14 @@ def recording_viewer(path: str | Path, size: tuple[int, int] = (1000, 560)) -> A
 
 def _ternary_classes(image: NDArray[np.float32]) -> NDArray[np.uint8]:
     return np.rint(np.asarray(image) * 2.0).astype(np.uint8)  # 0 / 0.5 / 1 -> 0 / 1 / 2
+
+
+def _uncertainty_rgb(u: NDArray[np.float32]) -> NDArray[np.uint8]:
+    """0 → dark blue, 1 → yellow (a short perceptual ramp), (H, W, 3)."""
+    u = np.clip(np.asarray(u, np.float32), 0.0, 1.0)[..., None]
+    lo, mid, hi = np.array([20, 30, 90]), np.array([200, 60, 90]), np.array([250, 230, 60])
+    rgb = np.where(u < 0.5, lo + (mid - lo) * (u / 0.5), mid + (hi - mid) * ((u - 0.5) / 0.5))
+    return rgb.astype(np.uint8)
 
 
 def _weight_colors(w: NDArray[np.float64]) -> NDArray[np.uint8]:
@@ -159,6 +219,8 @@ class RerunLogger:
             rr.AnnotationInfo(id=0, label="known", color=(0, 0, 0, 0)),
             rr.AnnotationInfo(id=1, label="unknown", color=(255, 0, 255, 90))]), static=True)
         self.rec.log("/metrics/n_eff", rr.SeriesLines(names="N_eff", colors=[[30, 120, 220]], widths=2), static=True)
+        for key, (color, label) in _METRICS.items():
+            self.rec.log(f"/metrics/{key}", rr.SeriesLines(names=label, colors=[color], widths=2), static=True)
         self._odom_path: list[NDArray[np.float64]] = []
         self._closed = False
 
@@ -185,6 +247,35 @@ class RerunLogger:
                                            scale=[spec.resolution_m, spec.resolution_m, 1.0]), static=static)
             self.rec.log(m, rr.SegmentationImage(ternary.unknown_mask.astype(np.uint8), draw_order=-5.0,
                                                  opacity=0.35), static=static)
+
+    def _place(self, entity: str, spec: GridSpec) -> None:
+        self.rec.log(entity, rr.Transform3D(translation=[spec.origin_x_m, spec.origin_y_m, 0.0],
+                                            scale=[spec.resolution_m, spec.resolution_m, 1.0]))
+
+    def log_mcn_step(self, frame: Frame, result: StepResult, trajectory_xy: NDArray[np.float64] | None = None) -> None:
+        """One MCN-SLAM step: the SLAM part (:meth:`log_slam_step`), the best map when the step carries it, and
+        at completion steps every rank's m_t, samples, uncertainty and the scores."""
+        self.log_slam_step(frame, result.slam, trajectory_xy)
+        if result.best_map is not None:
+            self.log_map("/world/map/estimate", result.best_map, mask=True)
+        c = result.completion
+        if c is None:
+            return
+        for r, window in enumerate(c.windows):
+            base = f"/world/mcn/rank{r}"
+            for name, image in [("partial", c.partial[r]), ("mean", c.mean[r]),
+                                *((f"sample{k}", c.samples[r, k]) for k in range(c.samples.shape[1]))]:
+                self._place(f"{base}/{name}", window)
+                self.rec.log(f"{base}/{name}", rr.SegmentationImage(_ternary_classes(image), draw_order=-10.0))
+            self._place(f"{base}/uncertainty", window)
+            self.rec.log(f"{base}/uncertainty", rr.Image(_uncertainty_rgb(c.uncertainty[r])))
+            pose = result.slam.poses[int(c.particles[r])]
+            self.rec.log(f"{base}/particle", rr.Points2D([pose[:2]], radii=0.15, colors=[[230, 40, 40]]))
+        scores = dict(result.scores)
+        scores["sample_diversity"] = float(c.diversity[0])
+        for key, value in scores.items():
+            if key in _METRICS and np.isfinite(value):
+                self.rec.log(f"/metrics/{key}", rr.Scalars(value))
 
     def log_ground_truth(self, ternary: TernaryMap) -> None:
         """The ground-truth map (static: the same at every step)."""
