@@ -88,7 +88,7 @@ def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, r
                 bar.set_postfix(updates=mcn.slam.n_updates, neff=f"{result.slam.neff:.1f}", refresh=False)
             if recorder is not None:
                 t0 = time.process_time()
-                traj = mcn.slam.trajectory().poses[:, :2] if result.slam.updated else None
+                traj = mcn.slam.update_poses()[:, :2] if result.slam.updated else None  # corrected poses so far
                 recorder.log_mcn_step(frame, result, traj)
                 summary.cpu_s_recording += time.process_time() - t0
             if on_step is not None:
@@ -132,7 +132,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     except (CheckpointError, FileNotFoundError) as err:
         return fail("run", err)
     try:
-        config = McnConfig(samples=args.samples, ranks=args.ranks, window=args.window, window_m=args.window_m)
+        config = McnConfig(samples=args.samples, ranks=args.ranks, window=args.window, window_m=args.window_m,
+                           full_map_every=args.map_every if args.rrd is not None else 0)
         slam_config = SlamConfig(n_particles=args.particles, resolution_m=args.resolution)
     except ValueError as err:
         return fail("run", err)
@@ -182,6 +183,8 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p.add_argument("--window", choices=["map", "robot"], default="map",
                    help="network input: the whole map shrunk to 64x64 (paper) or a robot-centred square")
     p.add_argument("--window-m", type=float, default=12.8, help="side of the robot-centred window (default 12.8 m)")
+    p.add_argument("--map-every", type=int, default=5,
+                   help="with --rrd: record the best full-resolution map every N completions (default 5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the filter and of the samples")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

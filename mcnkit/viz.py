@@ -17,9 +17,10 @@ Entities:
 | ``/world/robot/trajectory``, ``/world/robot/odom_path`` | best trajectory so far, raw odometry path |
 | ``/world/scan/hits`` | scan end points seen from the best pose |
 | ``/metrics/n_eff`` | effective sample size (scalar) |
-| ``/world/mcn/rank{r}/partial`` | MCN-SLAM: m_t of the r-th best particle on the network's window (in metres) |
-| ``/world/mcn/rank{r}/sample{k}`` | its k-th sampled completion |
-| ``/world/mcn/rank{r}/mean``, ``…/uncertainty`` | the mean completion; per-cell entropy of the samples (image) |
+| ``/world/mcn/rank{r}/window`` | MCN-SLAM: the network's window of the r-th best particle (Transform3D, metres) |
+| ``/world/mcn/rank{r}/window/partial`` | that particle's m_t on the window (64 × 64) |
+| ``/world/mcn/rank{r}/window/sample{k}`` | its k-th sampled completion |
+| ``…/window/mean``, ``…/window/uncertainty`` | the mean completion; per-cell entropy of the samples (image) |
 | ``/world/mcn/rank{r}/particle`` | that particle's pose |
 | ``/metrics/f_slam``, ``/metrics/f_completed``, ``/metrics/miou_unknown``, ``/metrics/sample_diversity`` | scalars |
 | ``/log`` | filter updates and resampling events (TextLog) |
@@ -88,9 +89,9 @@ def mcn_blueprint(ranks: int, samples: int) -> rrb.Blueprint:
     for r in range(ranks):
         base = f"/world/mcn/rank{r}"
         robot = f"{base}/particle"
-        views = [_map_view(f"#{r} m_t", f"{base}/partial", robot)]
-        views += [_map_view(f"#{r} s{k}", f"{base}/sample{k}", robot) for k in range(samples)]
-        views.append(_map_view(f"#{r} unc.", f"{base}/uncertainty", robot))
+        views = [_map_view(f"#{r} m_t", f"{base}/window/partial", robot)]
+        views += [_map_view(f"#{r} s{k}", f"{base}/window/sample{k}", robot) for k in range(samples)]
+        views.append(_map_view(f"#{r} unc.", f"{base}/window/uncertainty", robot))
         rows.append(rrb.Horizontal(*views))
     return rrb.Blueprint(
         rrb.Horizontal(
@@ -189,6 +190,10 @@ class _Tee:
         for s in self.streams:
             s.set_time(*args, **kwargs)
 
+    def send_columns(self, *args: Any, **kwargs: Any) -> None:
+        for s in self.streams:
+            s.send_columns(*args, **kwargs)
+
     def flush(self) -> None:
         for s in self.streams:
             s.flush()
@@ -221,7 +226,11 @@ class RerunLogger:
         self.rec.log("/metrics/n_eff", rr.SeriesLines(names="N_eff", colors=[[30, 120, 220]], widths=2), static=True)
         for key, (color, label) in _METRICS.items():
             self.rec.log(f"/metrics/{key}", rr.SeriesLines(names=label, colors=[color], widths=2), static=True)
+        self.rec.log("/world/robot/pose", rr.Arrows2D.from_fields(colors=[[230, 40, 40]]), static=True)
+        self.rec.log("/world/scan/hits", rr.Points2D.from_fields(radii=[0.03], colors=[[255, 160, 0]]), static=True)
         self._odom_path: list[NDArray[np.float64]] = []
+        self._scans: list[tuple[int, int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                NDArray[np.float64]]] = []
         self._closed = False
 
     def seek(self, step: int) -> None:
@@ -263,12 +272,12 @@ class RerunLogger:
             return
         for r, window in enumerate(c.windows):
             base = f"/world/mcn/rank{r}"
+            self._place(f"{base}/window", window)  # one transform for every image of the rank
             for name, image in [("partial", c.partial[r]), ("mean", c.mean[r]),
                                 *((f"sample{k}", c.samples[r, k]) for k in range(c.samples.shape[1]))]:
-                self._place(f"{base}/{name}", window)
-                self.rec.log(f"{base}/{name}", rr.SegmentationImage(_ternary_classes(image), draw_order=-10.0))
-            self._place(f"{base}/uncertainty", window)
-            self.rec.log(f"{base}/uncertainty", rr.Image(_uncertainty_rgb(c.uncertainty[r])))
+                self.rec.log(f"{base}/window/{name}",
+                             rr.SegmentationImage(_ternary_classes(image), draw_order=-10.0))
+            self.rec.log(f"{base}/window/uncertainty", rr.Image(_uncertainty_rgb(c.uncertainty[r])))
             pose = result.slam.poses[int(c.particles[r])]
             self.rec.log(f"{base}/particle", rr.Points2D([pose[:2]], radii=0.15, colors=[[230, 40, 40]]))
         scores = dict(result.scores)
@@ -282,24 +291,25 @@ class RerunLogger:
         self.log_map("/world/map/gt", ternary, static=True)
 
     def log_slam_step(self, frame: Frame, step: SlamStep, trajectory_xy: NDArray[np.float64] | None = None) -> None:
-        """Particles, best pose, scan hits, odometry path and N_eff of one filter step."""
-        self.set_time(step.index, step.stamp_ns)
+        """Particles, best pose, scan hits, odometry path and N_eff of one filter step.
+
+        The per-scan entities (particles, pose, hits) are buffered and sent as columns (``send_columns``) at the
+        next filter update and on :meth:`close`, which costs a fraction of one ``log`` call per scan; with a live
+        notebook viewer every scan is sent at once.
+        """
         w = np.asarray(step.weights, dtype=np.float64)
-        self.rec.log("/world/particles",
-                     rr.Points2D(step.poses[:, :2], radii=0.02 + 0.08 * w / max(float(w.max()), 1e-12),
-                                 colors=_weight_colors(w)),
-                     rr.AnyValues(weight=w, particle_id=np.arange(len(w))))
         pose = np.asarray(step.best_pose, dtype=np.float64)
-        heading = 0.4 * np.array([np.cos(pose[2]), np.sin(pose[2])])
-        self.rec.log("/world/robot/pose", rr.Arrows2D(origins=[pose[:2]], vectors=[heading], colors=[[230, 40, 40]]))
         scan = frame.scan
         angles = scan.spec.angles_rad[scan.valid]
         r = scan.ranges_m[scan.valid].astype(np.float64)
         laser = transform_points(pose, np.array([[scan.spec.base_to_laser.x_m, scan.spec.base_to_laser.y_m]]))[0]
         yaw = pose[2] + scan.spec.base_to_laser.yaw_rad
         hits = np.stack([laser[0] + r * np.cos(yaw + angles), laser[1] + r * np.sin(yaw + angles)], axis=1)
-        self.rec.log("/world/scan/hits", rr.Points2D(hits, radii=0.03, colors=[[255, 160, 0]]))
+        self._scans.append((step.index, step.stamp_ns, step.poses[:, :2].copy(), w, pose, hits))
         self._odom_path.append(frame.odom.as_array()[:2])
+        if step.updated or self.viewer is not None:
+            self._flush_scans()
+        self.set_time(step.index, step.stamp_ns)
         if step.updated:
             self.rec.log("/world/robot/odom_path",
                          rr.LineStrips2D([np.asarray(self._odom_path)], radii=0.02, colors=[[150, 150, 150]]))
@@ -311,10 +321,33 @@ class RerunLogger:
             self.rec.log("/log", rr.TextLog(f"scan {step.index}: {what} (N_eff {step.neff:.1f})",
                                             level=rr.TextLogLevel.INFO))
 
+    def _flush_scans(self) -> None:
+        """Sends the buffered per-scan entities as one column chunk each."""
+        if not self._scans:
+            return
+        steps, stamps, particles, weights, poses, hits = zip(*self._scans, strict=True)
+        self._scans = []
+        index = [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
+                 rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
+        n = [len(p) for p in particles]
+        w_all = np.concatenate(weights)
+        w_rel = np.concatenate([w / max(float(w.max()), 1e-12) for w in weights])
+        self.rec.send_columns("/world/particles", index, [
+            *rr.Points2D.columns(positions=np.concatenate(particles), radii=0.02 + 0.08 * w_rel,
+                                 colors=_weight_colors(w_rel)).partition(n),
+            *rr.AnyValues.columns(weight=w_all, particle_id=np.concatenate([np.arange(k) for k in n])).partition(n)])
+        p = np.asarray(poses)
+        heading = 0.4 * np.stack([np.cos(p[:, 2]), np.sin(p[:, 2])], axis=1)
+        self.rec.send_columns("/world/robot/pose", index,
+                              rr.Arrows2D.columns(origins=p[:, :2], vectors=heading).partition(np.ones(len(p), int)))
+        self.rec.send_columns("/world/scan/hits", index,
+                              rr.Points2D.columns(positions=np.concatenate(hits)).partition([len(h) for h in hits]))
+
     def close(self) -> None:
-        """Flushes and finalises the file (idempotent)."""
+        """Sends what is buffered, flushes and finalises the file (idempotent)."""
         if not self._closed:
             self._closed = True
+            self._flush_scans()
             self.rec.flush()
             self.rec.disconnect()
 

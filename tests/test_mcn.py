@@ -152,7 +152,7 @@ def test_a_recording_holds_particles_samples_scores_and_the_blueprint(
     entities = {chunk.entity_path for chunk in store.stream()}
     expected = {"/world/particles", "/world/map/estimate", "/world/map/unknown_mask", "/world/map/gt",
                 "/metrics/f_completed", "/metrics/f_slam", "/metrics/miou_unknown", "/metrics/sample_diversity"}
-    expected |= {f"/world/mcn/rank{r}/{name}" for r in range(2)
+    expected |= {f"/world/mcn/rank{r}/window/{name}" for r in range(2)
                  for name in ("partial", "mean", "uncertainty", "sample0", "sample1", "sample2")}
     assert expected <= entities
     particles = store.reader(index="step", contents="/world/particles").to_arrow_table()
@@ -161,9 +161,9 @@ def test_a_recording_holds_particles_samples_scores_and_the_blueprint(
     assert all(len(positions[i].values) == N_PARTICLES for i in range(particles.num_rows))
     samples = []
     for k in range(3):
-        t = store.reader(index="step", contents=f"/world/mcn/rank0/sample{k}").to_arrow_table()
+        t = store.reader(index="step", contents=f"/world/mcn/rank0/window/sample{k}").to_arrow_table()
         assert t.num_rows == summary.completions == mcn.slam.n_updates
-        blob = t.column(f"/world/mcn/rank0/sample{k}:SegmentationImage:buffer")
+        blob = t.column(f"/world/mcn/rank0/window/sample{k}:SegmentationImage:buffer")
         samples.append(np.asarray(blob[t.num_rows - 1].values[0].values))
     assert not np.array_equal(samples[0], samples[1]) or not np.array_equal(samples[1], samples[2])
     verify = subprocess.run([sys.executable, "-m", "rerun", "rrd", "verify", str(path)], capture_output=True, text=True)
