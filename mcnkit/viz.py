@@ -31,6 +31,7 @@ finalises the file, so an interrupted run still leaves a readable recording.
 
 from __future__ import annotations
 
+import re
 import uuid
 from pathlib import Path
 from types import TracebackType
@@ -48,7 +49,7 @@ from mcnkit.types import Frame, GridSpec, TernaryMap
 if TYPE_CHECKING:
     from mcnkit.mcn import StepResult
 
-__all__ = ["APPLICATION_ID", "RerunLogger", "mcn_blueprint", "recording_viewer", "slam_blueprint"]
+__all__ = ["APPLICATION_ID", "RerunLogger", "mcn_blueprint", "recording_blueprint", "recording_viewer", "slam_blueprint"]
 
 APPLICATION_ID = "mcnkit"
 _CLASSES = [(0, "free", (235, 235, 235)), (1, "unknown", (128, 128, 128)), (2, "occupied", (20, 20, 20))]
@@ -117,8 +118,19 @@ def mcn_blueprint(ranks: int, samples: int) -> rrb.Blueprint:
     )
 
 
+def recording_blueprint(entity_paths: set[str]) -> rrb.Blueprint:
+    """The layout for a recording with these entities: :func:`mcn_blueprint` with its (R, K) when it holds MCN
+    completions, else :func:`slam_blueprint`."""
+    found = [re.fullmatch(r"/world/mcn/rank(\d+)/window/sample(\d+)", e) for e in entity_paths]
+    pairs = [(int(m.group(1)), int(m.group(2))) for m in found if m]
+    if not pairs:
+        return slam_blueprint()
+    return mcn_blueprint(max(r for r, _ in pairs) + 1, max(k for _, k in pairs) + 1)
+
+
 def recording_viewer(path: str | Path, size: tuple[int, int] = (1000, 560)) -> Any:
-    """An embedded notebook viewer showing a finished ``.rrd`` (its chunks are sent from the kernel, offline).
+    """An embedded notebook viewer showing a finished ``.rrd`` (its chunks are sent from the kernel, offline),
+    laid out by :func:`recording_blueprint`.
 
     Returns the ``rerun.notebook.Viewer``; call ``.display()`` on it, and ``.set_time_ctrl(timeline="step",
     sequence=i, play=False)`` to move its time cursor.
@@ -132,10 +144,12 @@ def recording_viewer(path: str | Path, size: tuple[int, int] = (1000, 560)) -> A
 
     reader = RrdReader(str(path))
     rec_id = reader.recordings()[0].recording_id if reader.recordings() else str(uuid.uuid4())
+    store = reader.store()
+    blueprint = recording_blueprint({chunk.entity_path for chunk in reader.stream().collect().stream()})
     stream = rr.RecordingStream(APPLICATION_ID, recording_id=rec_id)
-    viewer = rerun.notebook.Viewer(recording=stream, width=size[0], height=size[1], blueprint=slam_blueprint())
+    viewer = rerun.notebook.Viewer(recording=stream, width=size[0], height=size[1], blueprint=blueprint)
     viewer.update_panels(blueprint="hidden", selection="hidden")
-    stream.send_chunks(reader.store())
+    stream.send_chunks(store)
     return viewer
 
 
