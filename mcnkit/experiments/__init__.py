@@ -1,0 +1,37 @@
+"""The paper's SLAM experiments: Experiment 2 (MCN-SLAM on simulated HouseExpo houses, :mod:`.exp2`) and
+Experiment 3 (the real-lab logs MIT CSAIL and Intel, :mod:`.exp3`).  Experiment 1 (completion from one scan) is
+:mod:`mcnkit.completion.exp1`.
+
+Each experiment is a frozen config dataclass, a ``run_*`` function that writes a CSV, a Markdown report and PNG
+figures and returns the Markdown, and an ``add_*_arguments(parser)`` that adds its command-line options (for
+``mcnkit experiment exp2|exp3``; ``exp2_config_from_args`` / ``exp3_config_from_args`` build the config back from
+the parsed options).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mcnkit.experiments.exp2 import Exp2Config, add_exp2_arguments, exp2_config_from_args, run_exp2
+    from mcnkit.experiments.exp3 import Exp3Config, add_exp3_arguments, exp3_config_from_args, run_exp3
+
+__all__ = [
+    "Exp2Config",
+    "Exp3Config",
+    "add_exp2_arguments",
+    "add_exp3_arguments",
+    "exp2_config_from_args",
+    "exp3_config_from_args",
+    "run_exp2",
+    "run_exp3",
+]
+
+
+def __getattr__(name: str) -> Any:
+    """Imports lazily, so ``python -m mcnkit.experiments.exp2`` does not find its module imported already."""
+    if name in __all__:
+        module = "exp2" if "2" in name else "exp3"
+        return getattr(importlib.import_module(f"mcnkit.experiments.{module}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
