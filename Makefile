@@ -13,7 +13,7 @@ export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
 .PHONY: help venv demo test lint typecheck pytest bench clean browser-check notebooks data
 
 help:
-	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> SLAM map)"
+	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> MCN-SLAM -> recordings/demo.rrd)"
 	@echo "make test   set up .venv and run ruff, mypy and pytest (all tests, slow ones included)"
 	@echo "make bench  run the benchmarks in benchmarks/ (figures printed and written as JSON)"
 	@echo "make notebooks       run every notebook in full mode (copies with outputs in notebooks/executed/)"
@@ -53,6 +53,9 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_io.py
 	$(PY) benchmarks/bench_slam.py
 	$(PY) benchmarks/bench_sim_slam.py
+	$(PY) benchmarks/bench_completion.py
+	$(PY) benchmarks/bench_mcn.py
+	$(PY) benchmarks/bench_mcn_weighting.py
 
 # every notebook top to bottom in full mode (make test runs them small, in CI mode)
 notebooks: $(STAMP)

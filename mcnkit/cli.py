@@ -47,7 +47,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("mcnkit.datasets.cli", "add_simulate_parser"),
     "data": ("mcnkit.datasets.cli", "add_data_parser"),
     "train": ("mcnkit.completion.cli", "add_train_parser"),
-    "experiment": ("mcnkit.completion.cli", "add_experiment_parser"),
+    "experiment": ("mcnkit.experiments.cli", "add_experiment_parser"),
 }
 
 

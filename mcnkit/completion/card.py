@@ -16,7 +16,13 @@ from typing import Any
 import numpy as np
 import torch
 
-from mcnkit.completion.checkpoint import build_models, checkpoint_paths, load_checkpoint, save_checkpoint
+from mcnkit.completion.checkpoint import (
+    CheckpointError,
+    build_models,
+    checkpoint_paths,
+    load_checkpoint,
+    save_checkpoint,
+)
 from mcnkit.completion.data import load_domain_pairs
 from mcnkit.completion.exp1 import default_weights_dir
 from mcnkit.completion.sample import complete, sample_completions
@@ -35,6 +41,29 @@ def _line(name: str, s: Scores) -> str:
         f"| {name} | {s.n_maps} | {s.accuracy:.4f} | {s.precision:.4f} | {s.recall:.4f} | "
         f"{s.f_measure:.4f} ± {s.f_ci95:.4f} | {s.miou_unknown:.4f} ± {s.miou_ci95:.4f} |"
     )
+
+
+def _init_time(tc: dict[str, Any], own_s: float) -> str:
+    """The wall time of the run this one was initialised from, and the sum (to the shipped checkpoint)."""
+    if not tc.get("init_from"):
+        return ""
+    try:
+        init_s = float(load_checkpoint(tc["init_from"]).info["wall_time_s"])
+    except (CheckpointError, KeyError, TypeError, ValueError):
+        return " — plus the run it was initialised from"
+    total = init_s + own_s
+    return (
+        f" — plus the run it was initialised from (its best checkpoint after {init_s:.0f} s): "
+        f"{total:.0f} s ({total / 60:.1f} min) from scratch to this checkpoint"
+    )
+
+
+def _augment(tc: dict[str, Any]) -> str:
+    if not tc["augment"]:
+        return "none"
+    if tc.get("augment_transpose", True):
+        return "the 8 symmetries of the square (flips and transposes)"
+    return "flips (left-right, up-down; no transposes)"
 
 
 def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path | None = None) -> Path:
@@ -78,12 +107,13 @@ def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path |
 - Architecture: `{ck.arch}`; generator `UNetConfig({", ".join(f"{k}={v}" for k, v in ck.generator_config.as_dict().items())})`,
   spectral normalization on every conv; {sum(p.numel() for p in gen.parameters()):,} generator parameters; file {size_mb:.1f} MB.
 - Data: {tc["domain"]} pairs (m_t, m_T), 64×64; split {info.get("n_train_pairs")} train / {len(splits.val)} val / {len(splits.test)} test
-  (`n_train={tc["n_train"]}, n_val={tc["n_val"]}, n_test={tc["n_test"]}`, seed {tc["seed"]}); augmentation by flips/transposes: {tc["augment"]}.
+  (`n_train={tc["n_train"]}, n_val={tc["n_val"]}, n_test={tc["n_test"]}`, seed {tc["seed"]}); augmentation: {_augment(tc)}.
 - Training: seed {tc["seed"]}, {int(info["epoch"]) + 1} epochs (best checkpoint; {info.get("steps")} steps of batch {tc["batch_size"]}),
-  lr {tc["lr"]}, unknown-cell weight {tc["unknown_weight"]}{", recon weight " + str(tc["recon_weight"]) + ", GAN weight " + str(tc["gan_weight"]) if ck.arch == "pix2pix" else ""},
+  lr {tc["lr"]} (Adam beta1 {tc.get("beta1", 0.5)}), unknown-cell weight {tc["unknown_weight"]}, free-target weight
+  {tc.get("free_weight", 1.0)}, EMA of the weights: {tc.get("ema_decay", 0.0) or "off"} (the EMA is what is validated and shipped){", recon weight " + str(tc["recon_weight"]) + ", GAN weight " + str(tc["gan_weight"]) if ck.arch == "pix2pix" else ""},
   time budget {tc["max_minutes"]} min, initialised from: {tc["init_from"] or "scratch"}.
 - Wall time (data loading + training + per-epoch validation, 2 CPU cores shared with another job): best checkpoint
-  reached after {info["wall_time_s"]:.0f} s ({info["wall_time_s"] / 60:.1f} min), whole run {total_s:.0f} s ({total_s / 60:.1f} min){" — plus the run it was initialised from" if tc["init_from"] else ""}.
+  reached after {info["wall_time_s"]:.0f} s ({info["wall_time_s"] / 60:.1f} min), whole run {total_s:.0f} s ({total_s / 60:.1f} min){_init_time(tc, float(info["wall_time_s"]))}.
 - Sample diversity (K = 8, dropout on, 100 test maps): {div:.4f} of the cells differ between two samples.
 
 ## Reproduce

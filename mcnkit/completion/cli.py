@@ -13,8 +13,7 @@ from collections.abc import Sequence
 from mcnkit.cli import fail
 from mcnkit.completion.checkpoint import CheckpointError
 
-__all__ = ["add_experiment_parser", "add_train_parser", "cmd_experiment", "cmd_train", "main"]
-
+__all__ = ["add_exp1_arguments", "add_train_parser", "cmd_experiment", "cmd_train", "main"]
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -32,15 +31,20 @@ def cmd_train(args: argparse.Namespace) -> int:
             epochs=args.epochs,
             batch_size=args.batch_size,
             lr=args.lr,
+            beta1=args.beta1,
             seed=args.seed,
             unknown_weight=args.unknown_weight,
             recon_weight=args.recon_weight,
             gan_weight=args.gan_weight,
             augment=not args.no_augment,
+            augment_transpose=not args.flips_only,
             base_channels=args.base_channels,
             max_channels=args.max_channels,
             depth=args.depth,
             dropout=args.dropout,
+            dropout_levels=args.dropout_levels,
+            free_weight=args.free_weight,
+            ema_decay=args.ema,
             max_minutes=args.max_minutes,
             max_steps=args.max_steps,
             init_from=args.init_from,
@@ -76,15 +80,20 @@ def add_train_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--epochs", type=int, default=10)
     p.add_argument("--batch-size", type=int, default=32)
     p.add_argument("--lr", type=float, default=2e-3)
+    p.add_argument("--beta1", type=float, default=0.5, help="Adam beta1 of the generator (pix2pix: 0.5)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--unknown-weight", type=float, default=2.0, help="L2 weight on cells unknown in m_t")
     p.add_argument("--recon-weight", type=float, default=100.0, help="pix2pix: weight of the L2 term")
     p.add_argument("--gan-weight", type=float, default=1.0, help="pix2pix: weight of the adversarial term")
     p.add_argument("--no-augment", action="store_true", help="no flips / rot90")
+    p.add_argument("--flips-only", action="store_true", help="augment by flips only, no transposes (HouseExpo)")
     p.add_argument("--base-channels", type=int, default=16)
     p.add_argument("--max-channels", type=int, default=128)
     p.add_argument("--depth", type=int, default=4)
     p.add_argument("--dropout", type=float, default=0.2)
+    p.add_argument("--dropout-levels", type=int, default=2, help="innermost decoder levels that carry dropout")
+    p.add_argument("--free-weight", type=float, default=1.0, help="L2 weight factor on cells whose target is free")
+    p.add_argument("--ema", type=float, default=0.0, help="EMA decay of the generator weights (0: off), e.g. 0.999")
     p.add_argument("--max-minutes", type=float, default=None, help="stop after this wall time (ends the epoch)")
     p.add_argument("--max-steps", type=int, default=None)
     p.add_argument("--init-from", default=None, help="initialise the generator from this checkpoint")
@@ -122,10 +131,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_experiment_parser(subparsers: argparse._SubParsersAction) -> None:
-    """Adds ``experiment`` with the ``exp1`` experiment."""
-    p = subparsers.add_parser("experiment", help="run a paper experiment (exp1: map completion on HouseExpo)")
-    p.add_argument("name", choices=["exp1"])
+def add_exp1_arguments(p: argparse.ArgumentParser) -> None:
+    """Adds Experiment 1's options (``mcnkit experiment exp1``, wired in :mod:`mcnkit.experiments.cli`)."""
     p.add_argument("--out", required=True, help="output directory (exp1.csv, exp1.md, PNG figures)")
     p.add_argument("--weights", default=None, help="directory with the checkpoints (default: shipped weights)")
     p.add_argument("--n-test", type=int, default=100, help="HouseExpo test maps (paper: 100; up to 1000)")
@@ -135,15 +142,13 @@ def add_experiment_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--houseexpo", default=None)
     p.add_argument("--cache", default=None)
     p.add_argument("--threads", type=int, default=2)
-    p.set_defaults(func=cmd_experiment)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Runs ``train`` / ``experiment`` standalone (``python -m mcnkit.completion.cli``)."""
+    """Runs ``train`` standalone (``python -m mcnkit.completion.cli``)."""
     parser = argparse.ArgumentParser(prog="mcnkit")
     sub = parser.add_subparsers(dest="command", required=True)
     add_train_parser(sub)
-    add_experiment_parser(sub)
     args = parser.parse_args(argv)
     return int(args.func(args))
 

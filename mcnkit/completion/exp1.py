@@ -44,7 +44,6 @@ SHIPPED = (
     ("(A) pix2pix", "pix2pix-houseexpo", "houseexpo"),
     ("(B) U-net", "unet-houseexpo", "houseexpo"),
     ("(B) U-net", "unet-procedural", "procedural"),
-    ("(B') small U-net for particles", "unet-houseexpo-fast", "houseexpo"),
 )
 PAPER = """| (A) pix2pix | 0.5831 | 0.8613 | 0.3762 | 0.4939 |
 | (B) U-net | 0.5852 | 0.8612 | 0.3807 | 0.4963 |

@@ -7,6 +7,12 @@ and its ternary map, and a per-cell uncertainty = entropy of the K sampled label
 divided by log 3 (0: all samples agree, 1: labels spread evenly).  :func:`diversity` is the mean over pairs of
 samples of the share of cells on which they differ.
 
+Fast path: both functions run a frozen inference copy of the net (:func:`inference_net`): spectral norm
+evaluated once (W/σ stored as a plain weight) and eval-mode batch norm folded into the preceding (transposed)
+convolution (rewriting the transposed convolutions as convolution + pixel shuffle, and channels-last layout,
+were measured and not faster at 2 threads).  It computes the same function as ``net`` in eval mode (up to float rounding), is cached per net and
+rebuilt whenever any of the net's parameters or buffers changed (``Tensor._version``); checkpoints are untouched.
+
 Example:
     >>> net = UNet(UNetConfig(base_channels=4, depth=2)).eval()
     >>> s = sample_completions(net, np.full((1, 64, 64), 0.5, np.float32), k=3, generator=torch.Generator().manual_seed(0))
@@ -16,17 +22,20 @@ Example:
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
+from torch import nn
+from torch.nn.utils import parametrize
 
 from mcnkit.completion.nets import UNet
 from mcnkit.grid import network_to_ternary, ternary_to_network
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
-__all__ = ["SampleSet", "complete", "diversity", "label_entropy", "sample_completions"]
+__all__ = ["SampleSet", "complete", "diversity", "inference_net", "label_entropy", "sample_completions"]
 
 F32 = NDArray[np.float32]
 
@@ -57,6 +66,75 @@ def _as_input(partial: NDArray[np.floating] | torch.Tensor, device: torch.device
     return x.to(device=device, dtype=torch.float32)
 
 
+_FROZEN: weakref.WeakKeyDictionary[nn.Module, tuple[tuple[int, ...], UNet]] = weakref.WeakKeyDictionary()
+
+
+def _fingerprint(net: nn.Module) -> tuple[int, ...]:
+    return tuple(v for t in (*net.parameters(), *net.buffers()) for v in (id(t), t._version))
+
+
+def _fold_bn(conv: nn.Module, bn: nn.BatchNorm2d) -> None:
+    """conv ← bn ∘ conv (eval-mode statistics); the out channels are dim 0 (Conv2d) or dim 1 (ConvTranspose2d)."""
+    assert isinstance(conv, nn.Conv2d | nn.ConvTranspose2d)
+    assert bn.running_mean is not None and bn.running_var is not None
+    scale = (bn.weight if bn.affine else torch.ones_like(bn.running_var)) / torch.sqrt(bn.running_var + bn.eps)
+    shift = bn.bias if bn.affine else torch.zeros_like(bn.running_mean)
+    dim = 1 if isinstance(conv, nn.ConvTranspose2d) else 0
+    shape = [1] * conv.weight.ndim
+    shape[dim] = -1
+    conv.weight = nn.Parameter(conv.weight * scale.view(shape), requires_grad=False)
+    bias = conv.bias if conv.bias is not None else torch.zeros_like(bn.running_mean)
+    conv.bias = nn.Parameter((bias - bn.running_mean) * scale + shift, requires_grad=False)
+
+
+def _freeze(net: UNet) -> UNet:
+    # A fresh net (its own parametrized classes: never remove_parametrizations on a deepcopy, whose classes are
+    # shared with the original) with the parametrizations removed, then the evaluated weights copied in.
+    was_training = net.training
+    net.eval()  # eval: reading a spectral-norm weight runs no power iteration
+    frozen = UNet(net.config).eval()
+    src_param = next(net.parameters(), None)
+    if src_param is not None:
+        frozen.to(device=src_param.device, dtype=src_param.dtype)
+    with torch.no_grad():
+        for m in frozen.modules():
+            if parametrize.is_parametrized(m, "weight"):
+                parametrize.remove_parametrizations(m, "weight", leave_parametrized=False)
+        kinds = nn.Conv2d | nn.ConvTranspose2d | nn.BatchNorm2d
+        srcs = [m for m in net.modules() if isinstance(m, kinds)]
+        dsts = [m for m in frozen.modules() if isinstance(m, kinds)]
+        for src, dst in zip(srcs, dsts, strict=True):
+            if isinstance(src, nn.BatchNorm2d):
+                dst.load_state_dict(src.state_dict())
+            else:
+                dst.weight.copy_(src.weight)
+                if src.bias is not None and dst.bias is not None:
+                    dst.bias.copy_(src.bias)
+        for convs, norms in ((frozen.down, frozen.down_norm), (frozen.up, frozen.up_norm)):
+            for i, (conv, norm) in enumerate(zip(convs, norms, strict=True)):
+                if isinstance(norm, nn.BatchNorm2d):
+                    _fold_bn(conv, norm)
+                    norms[i] = nn.Identity()
+    net.train(was_training)
+    for p in frozen.parameters():
+        p.requires_grad_(False)
+    return frozen
+
+
+def inference_net(net: UNet) -> UNet:
+    """The frozen inference copy of ``net`` (cached; rebuilt when its weights change).  Nets that are not a plain
+    :class:`UNet` (wrappers, subclasses) are returned unchanged."""
+    if type(net) is not UNet:
+        return net
+    key = _fingerprint(net)
+    hit = _FROZEN.get(net)
+    if hit is not None and hit[0] == key:
+        return hit[1]
+    frozen = _freeze(net)
+    _FROZEN[net] = (key, frozen)
+    return frozen
+
+
 def _symmetric_output(net: UNet, x: torch.Tensor) -> torch.Tensor:
     """Mean of the outputs over the 8 symmetries of the square (each undone on its output); x square."""
     total = torch.zeros((x.shape[0], 2, *x.shape[2:]), dtype=x.dtype, device=x.device)
@@ -68,7 +146,7 @@ def _symmetric_output(net: UNet, x: torch.Tensor) -> torch.Tensor:
     return total / 8.0
 
 
-@torch.no_grad()
+@torch.inference_mode()
 def complete(
     net: UNet,
     partial: NDArray[np.floating],
@@ -80,14 +158,17 @@ def complete(
 
     ``symmetric``: average the output over the 8 symmetries of the square before conversion (8× the cost).
     """
+    fast = inference_net(net)  # always in eval mode; ``net`` itself is not touched (no mode switches)
     was_training = net.training
-    net.eval()
+    if fast is net:
+        net.eval()
     dev = torch.device(device)
     outs = []
     for i in range(0, len(partial), batch_size):
         x = _as_input(partial[i : i + batch_size], dev)
-        outs.append((_symmetric_output(net, x) if symmetric else net(x)).cpu().numpy())
-    net.train(was_training)
+        outs.append((_symmetric_output(fast, x) if symmetric else fast(x)).cpu().numpy())
+    if fast is net:
+        net.train(was_training)
     if not outs:
         return np.zeros((0, *np.shape(partial)[1:]), np.float32)
     return network_to_ternary(np.concatenate(outs))
@@ -117,7 +198,7 @@ def diversity(samples: NDArray[np.floating]) -> F32:
     return (total / (k * (k - 1) / 2)).astype(np.float32)
 
 
-@torch.no_grad()
+@torch.inference_mode()
 def sample_completions(
     net: UNet,
     partial: NDArray[np.floating] | torch.Tensor,
@@ -128,13 +209,16 @@ def sample_completions(
     """K sampled completions of each m_t (B, H, W) [or network input (B, 2, H, W)], all in one batch."""
     if k < 1:
         raise ValueError(f"k must be at least 1, got {k}")
+    fast = inference_net(net)  # eval mode: batch norm uses its running statistics; dropout on through sample=True
     was_training = net.training
-    net.eval()  # batch norm uses its running statistics; dropout stays on through sample=True
+    if fast is net:
+        net.eval()
     x = _as_input(partial, torch.device(device))
     b, c, h, w = x.shape
     xx = x.unsqueeze(1).expand(b, k, c, h, w).reshape(b * k, c, h, w)
-    out = net(xx, sample=True, generator=generator).reshape(b, k, 2, h, w).cpu().numpy()
-    net.train(was_training)
+    out = fast(xx, sample=True, generator=generator).reshape(b, k, 2, h, w).cpu().numpy()
+    if fast is net:
+        net.train(was_training)
     samples = network_to_ternary(out)  # (B, K, H, W)
     mean_out = out.mean(axis=1)
     return SampleSet(samples, mean_out.astype(np.float32), network_to_ternary(mean_out), label_entropy(samples))

@@ -8,14 +8,18 @@
   whichever runs out first, steps or time (a run cut by time is then not bit-reproducible on another machine).
 * Each epoch shuffles with a generator seeded by ``(seed, epoch)``; dropout and augmentation draw from a
   generator seeded by ``(seed, epoch, rank)``: a run is reproducible and a resumed run continues it.
+* ``free_weight``: the L2 weight of cells whose target is free is multiplied by it (class weighting).
+* ``ema_decay`` > 0: a Polyak (exponential moving) average of the generator's weights and batch-norm statistics
+  is kept; it is the network validated and saved as ``best`` (the raw weights keep training).
 * Every epoch: validation (deterministic output, free class): F-measure and mIoU on unknown cells;
-  ``OUT/last`` (resumable: optimizer states) and ``OUT/best`` (best ``(F + mIoU) / 2``) checkpoints.
+  ``OUT/last`` (resumable: optimizer states, EMA) and ``OUT/best`` (best ``(F + mIoU) / 2``) checkpoints.
 * Under ``torchrun`` (``WORLD_SIZE`` > 1) the networks are wrapped in DistributedDataParallel (gloo on CPU,
   nccl on CUDA); each rank takes every ``world``-th pair of the epoch's order; rank 0 validates and saves.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 import time
@@ -37,7 +41,7 @@ from mcnkit.completion.sample import complete
 from mcnkit.completion.scores import score_maps
 from mcnkit.datasets import PairSplits
 
-__all__ = ["TrainConfig", "TrainResult", "select_device", "train", "weighted_l2"]
+__all__ = ["TrainConfig", "TrainResult", "ema_update", "select_device", "train", "weighted_l2"]
 
 
 @dataclass(frozen=True)
@@ -54,15 +58,20 @@ class TrainConfig:
     batch_size: int = 32
     lr: float = 2e-3
     lr_discriminator: float = 2e-4
+    beta1: float = 0.5
     seed: int = 0
     unknown_weight: float = 2.0
     recon_weight: float = 100.0
     gan_weight: float = 1.0
     augment: bool = True
+    augment_transpose: bool = True
     base_channels: int = 16
     max_channels: int = 128
     depth: int = 4
     dropout: float = 0.2
+    dropout_levels: int = 2
+    free_weight: float = 1.0
+    ema_decay: float = 0.0
     max_minutes: float | None = None
     max_steps: int | None = None
     init_from: str | None = None
@@ -103,12 +112,37 @@ def select_device(name: str = "auto") -> torch.device:
 
 
 def weighted_l2(
-    output: torch.Tensor, target: torch.Tensor, unknown: torch.Tensor, unknown_weight: float
+    output: torch.Tensor,
+    target: torch.Tensor,
+    unknown: torch.Tensor,
+    unknown_weight: float,
+    free_weight: float = 1.0,
 ) -> torch.Tensor:
-    """Mean over cells and channels of w·(output − target)², w = ``unknown_weight`` on unknown cells, 1 elsewhere."""
+    """Mean over cells and channels of w·(output − target)², w = ``unknown_weight`` on unknown cells, 1 elsewhere,
+    times ``free_weight`` on cells whose target is free (image < 0.25); normalized to mean 1.
+
+    A class weight moves the L2 optimum: with w_f on free and w_o on occupied targets the output image' crosses
+    0.5 where p(free) = w_o / (w_f + w_o), so ``free_weight`` > 1 makes the fixed 0.5 rule predict free sooner.
+    """
     w = 1.0 + (unknown_weight - 1.0) * unknown  # (B, 1, H, W)
+    if free_weight != 1.0:
+        w = w * (1.0 + (free_weight - 1.0) * (target[:, :1] < 0.25).to(w.dtype))
     w = w / w.mean()
     return ((output - target) ** 2 * w).mean()
+
+
+@torch.no_grad()
+def ema_update(ema: nn.Module, model: nn.Module, decay: float) -> None:
+    """Polyak average: ema ← decay·ema + (1 − decay)·model over every float parameter and buffer (batch-norm
+    statistics included); spectral-norm power-iteration vectors (``_u``, ``_v``) are re-normalized to unit length."""
+    src = model.state_dict()
+    for k, v in ema.state_dict().items():
+        if not v.dtype.is_floating_point:
+            v.copy_(src[k])
+            continue
+        v.lerp_(src[k], 1.0 - decay)
+        if k.endswith("._u") or k.endswith("._v"):
+            v.div_(v.norm().clamp_min(1e-12))
 
 
 def _optim_tensors(opt: torch.optim.Optimizer, prefix: str) -> dict[str, torch.Tensor]:
@@ -152,7 +186,12 @@ def _lr_factor(step: int, total: int, time_fraction: float = 0.0) -> float:
 
 def _build(cfg: TrainConfig, size: int) -> tuple[UNet, PatchDiscriminator | None]:
     gcfg = UNetConfig(
-        base_channels=cfg.base_channels, max_channels=cfg.max_channels, depth=cfg.depth, dropout=cfg.dropout, size=size
+        base_channels=cfg.base_channels,
+        max_channels=cfg.max_channels,
+        depth=cfg.depth,
+        dropout=cfg.dropout,
+        dropout_levels=cfg.dropout_levels,
+        size=size,
     )
     gen = UNet(gcfg)
     disc = PatchDiscriminator(DiscriminatorConfig()) if cfg.model == "pix2pix" else None
@@ -186,7 +225,12 @@ def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
     gen.to(device)
     if disc is not None:
         disc.to(device)
-    opt_g = torch.optim.Adam(gen.parameters(), lr=cfg.lr, betas=(0.5, 0.999))
+    ema: UNet | None = None
+    if cfg.ema_decay > 0:
+        ema = copy.deepcopy(gen).eval()
+        for p in ema.parameters():
+            p.requires_grad_(False)
+    opt_g = torch.optim.Adam(gen.parameters(), lr=cfg.lr, betas=(cfg.beta1, 0.999))
     opt_d = torch.optim.Adam(disc.parameters(), lr=cfg.lr_discriminator, betas=(0.0, 0.9)) if disc is not None else None
     start_epoch, best, history, wall_before = 0, -1.0, [], 0.0
     best_f = best_miou = float("nan")
@@ -196,6 +240,9 @@ def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
         gen.load_state_dict(g2.state_dict())
         if disc is not None and d2 is not None:
             disc.load_state_dict(d2.state_dict())
+        if ema is not None:
+            ema_state = ck.section("ema.generator")
+            ema.load_state_dict(ema_state if ema_state else gen.state_dict())
         _load_optim(opt_g, ck, "g")
         if opt_d is not None:
             _load_optim(opt_d, ck, "d")
@@ -228,7 +275,7 @@ def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
             idx = order[i * cfg.batch_size : (i + 1) * cfg.batch_size]
             x, y = x_all[idx], y_all[idx]
             if cfg.augment:
-                x, y = augment_dihedral(x, y, rng)
+                x, y = augment_dihedral(x, y, rng, cfg.augment_transpose)
             x, y = x.to(device), y.to(device)
             elapsed_min = (time.perf_counter() - t_start) / 60
             time_fraction = elapsed_min / cfg.max_minutes if cfg.max_minutes else 0.0
@@ -237,9 +284,9 @@ def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
             unknown = x[:, 1:2]
             fake = g_model(x)
             loss = (
-                cfg.recon_weight * weighted_l2(fake, y, unknown, cfg.unknown_weight)
+                cfg.recon_weight * weighted_l2(fake, y, unknown, cfg.unknown_weight, cfg.free_weight)
                 if disc
-                else weighted_l2(fake, y, unknown, cfg.unknown_weight)
+                else weighted_l2(fake, y, unknown, cfg.unknown_weight, cfg.free_weight)
             )
             if d_model is not None and opt_d is not None:
                 real_logits = d_model(x[:, :1], y[:, :1])
@@ -252,6 +299,9 @@ def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
             opt_g.zero_grad(set_to_none=True)
             loss.backward()
             opt_g.step()
+            if ema is not None:
+                # short warm-up of the average: decay ramps to ema_decay over the first steps
+                ema_update(ema, gen, min(cfg.ema_decay, (1.0 + step) / (10.0 + step)))
             losses.append(float(loss.detach()))
             step += 1
             if i % 20 == 0:
@@ -263,10 +313,11 @@ def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
         bar.close()
         if rank == 0:
             gen.eval()
+            shipped = ema if ema is not None else gen  # validated and saved as "best"
             rec: dict[str, float] = {
                 "epoch": epoch,
                 "train_loss": float(np.mean(losses)),
-                **_validate(gen, splits, device),
+                **_validate(shipped, splits, device),
             }
             rec["wall_time_s"] = wall_before + time.perf_counter() - t_start
             history.append(rec)
@@ -286,8 +337,12 @@ def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
             }
             if score > best:
                 best, best_f, best_miou = score, rec["val_f"], rec["val_miou"]
-                save_checkpoint(out / "best", cfg.model, gen, disc, {**info, "val_f": best_f, "val_miou": best_miou})
+                save_checkpoint(
+                    out / "best", cfg.model, shipped, disc, {**info, "val_f": best_f, "val_miou": best_miou}
+                )
             extra = _optim_tensors(opt_g, "g") | (_optim_tensors(opt_d, "d") if opt_d is not None else {})
+            if ema is not None:
+                extra |= {f"ema.generator.{k}": v.detach().clone() for k, v in ema.state_dict().items()}
             info |= {"best_score": best, "best_val_f": best_f, "best_val_miou": best_miou}
             last_path = save_checkpoint(out / "last", cfg.model, gen, disc, info, extra)
         if world > 1:

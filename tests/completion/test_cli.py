@@ -5,7 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from mcnkit.completion.cli import add_experiment_parser, add_train_parser, main
+from mcnkit.completion.cli import add_train_parser, main
+from mcnkit.experiments.cli import add_experiment_parser
 
 
 def test_parsers_set_func() -> None:
@@ -14,7 +15,9 @@ def test_parsers_set_func() -> None:
     add_train_parser(sub)
     add_experiment_parser(sub)
     assert callable(parser.parse_args(["train", "--out", "x"]).func)
-    assert parser.parse_args(["experiment", "exp1", "--out", "x"]).name == "exp1"
+    for name in ("exp1", "exp2", "exp3"):
+        args = parser.parse_args(["experiment", name, "--out", "x"])
+        assert args.experiment == name and callable(args.func)
 
 
 def test_bad_checkpoint_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
