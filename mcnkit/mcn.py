@@ -90,6 +90,8 @@ class McnConfig:
     """Complete at every ``every``-th filter update."""
     full_map_every: int = 1
     """Put the best particle's full-resolution map in every ``full_map_every``-th completed step (0: never)."""
+    full_map_max_cells: int = 600_000
+    """Larger maps come in ``StepResult.best_map`` pooled by a whole factor (walls kept) to at most this many cells."""
     completion_weight: float = 0.0
     """> 0: weight particles by how well the scan fits their completed map in unknown cells (see module doc)."""
     hit_epsilon: float = 0.1
@@ -162,7 +164,8 @@ class StepResult:
     slam: SlamStep
     completion: Completion | None = None
     best_map: TernaryMap | None = None
-    """The best particle's full-resolution m_t (cropped to what was seen), when this step carries it."""
+    """The best particle's m_t (cropped to what was seen; pooled when larger than ``full_map_max_cells``), when
+    this step carries it."""
     scores: dict[str, float] = field(default_factory=dict)
     """Against the ground truth when known, for the best particle on its window: ``f_slam`` (F of m_t, free
     positive), ``f_completed`` (F of the mean completion), ``miou_unknown`` (mIoU of the mean completion on the
@@ -218,7 +221,7 @@ class McnSlam:
         self.n_completions += 1
         best_map = None
         if cfg.full_map_every and (self.n_completions - 1) % cfg.full_map_every == 0:
-            best_map = self.lineages[slots[0]].ternary()
+            best_map = self.lineages[slots[0]].ternary(max_cells=cfg.full_map_max_cells)
         return StepResult(s, completion, best_map, self._score(completion))
 
     def best_ternary(self) -> TernaryMap:

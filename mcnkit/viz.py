@@ -314,8 +314,9 @@ class RerunLogger:
         w = np.asarray(step.weights, dtype=np.float64)
         pose = np.asarray(step.best_pose, dtype=np.float64)
         scan = frame.scan
-        angles = scan.spec.angles_rad[scan.valid]
-        r = scan.ranges_m[scan.valid].astype(np.float64)
+        valid = scan.valid
+        angles = scan.spec.angles_rad[valid]
+        r = scan.ranges_m[valid].astype(np.float64)
         laser = transform_points(pose, np.array([[scan.spec.base_to_laser.x_m, scan.spec.base_to_laser.y_m]]))[0]
         yaw = pose[2] + scan.spec.base_to_laser.yaw_rad
         hits = np.stack([laser[0] + r * np.cos(yaw + angles), laser[1] + r * np.sin(yaw + angles)], axis=1)
@@ -323,8 +324,8 @@ class RerunLogger:
         self._odom_path.append(frame.odom.as_array()[:2])
         if step.updated or self.viewer is not None:
             self._flush_scans()
-        self.set_time(step.index, step.stamp_ns)
-        if step.updated:
+        if step.updated:  # row-by-row logs below (and log_mcn_step's) happen at filter updates only
+            self.set_time(step.index, step.stamp_ns)
             self.rec.log("/world/robot/odom_path",
                          rr.LineStrips2D([np.asarray(self._odom_path)], radii=0.02, colors=[[150, 150, 150]]))
             if trajectory_xy is not None:

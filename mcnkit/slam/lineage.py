@@ -247,14 +247,20 @@ class LineageMap:
         return (float(self._seen_lo[0] * res), float(self._seen_lo[1] * res),
                 float((self._seen_hi[0] + 1) * res), float((self._seen_hi[1] + 1) * res))
 
-    def ternary(self, crop: bool = True) -> TernaryMap:
-        """The full-resolution ternary map (cropped to the seen cells unless ``crop=False``)."""
+    def ternary(self, crop: bool = True, max_cells: int | None = None) -> TernaryMap:
+        """The ternary map (cropped to the seen cells unless ``crop=False``), at full resolution or, when that
+        has more than ``max_cells`` cells, pooled (:meth:`pooled`) by the smallest whole factor that fits."""
         if not crop:
             return TernaryMap(_VALUE_OF_RANK[self.ranks], self.spec)
         x0, y0, x1, y1 = self.seen_bounds_m()
         res = self.resolution_m
         c0, r0 = round(x0 / res) - self.ix0, round(y0 / res) - self.iy0
         c1, r1 = round(x1 / res) - self.ix0, round(y1 / res) - self.iy0
+        cells = (c1 - c0) * (r1 - r0)
+        if max_cells is not None and cells > max_cells:
+            f = math.ceil(math.sqrt(cells / max_cells))
+            window = GridSpec(res * f, x0, y0, math.ceil((c1 - c0) / f), math.ceil((r1 - r0) / f))
+            return TernaryMap(self.pooled(window), window)
         image = _VALUE_OF_RANK[self.ranks[r0:r1, c0:c1]]
         return TernaryMap(image, GridSpec(res, x0, y0, c1 - c0, r1 - r0))
 
