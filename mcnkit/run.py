@@ -46,6 +46,9 @@ class RunSummary:
     """CPU spent writing the recording (included in ``cpu_s``)."""
     wall_s: float = 0.0
     mean_diversity: float = float("nan")
+    rrd_bytes_written: int = 0
+    """Size of the recording as written, and after ``rerun rrd optimize`` (0 without a recording)."""
+    rrd_bytes: int = 0
     scores: list[dict[str, float]] = field(default_factory=list)
     """Per completion, the step's scores against the ground truth (empty without one)."""
 
@@ -56,10 +59,12 @@ class RunSummary:
 
 def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, recording_id: str | None = None,
             ground_truth: TernaryMap | None = None, progress: bool = True, total: int | None = None,
-            on_step: Callable[[Frame, StepResult], None] | None = None, notebook_viewer: bool = False) -> RunSummary:
+            on_step: Callable[[Frame, StepResult], None] | None = None, notebook_viewer: bool = False,
+            optimize: bool = True) -> RunSummary:
     """Feeds ``frames`` to ``mcn`` and records each step to ``rrd`` (when given); returns the summary.
 
-    ``on_step(frame, result)`` is called after every step (a notebook can draw from it).
+    ``on_step(frame, result)`` is called after every step (a notebook can draw from it).  A finished recording is
+    compacted with ``rerun rrd optimize`` unless ``optimize=False`` (an interrupted one is left as written).
     """
     from tqdm import tqdm
 
@@ -96,6 +101,10 @@ def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, r
     summary.filter_updates = mcn.slam.n_updates
     summary.cpu_s = time.process_time() - cpu0
     summary.wall_s = time.perf_counter() - wall0
+    if rrd is not None and optimize:
+        from mcnkit.viz import optimize_recording
+
+        summary.rrd_bytes_written, summary.rrd_bytes = optimize_recording(rrd)
     summary.mean_diversity = float(np.mean(diversities)) if diversities else float("nan")
     return summary
 
@@ -133,7 +142,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return fail("run", err)
     try:
         config = McnConfig(samples=args.samples, ranks=args.ranks, window=args.window, window_m=args.window_m,
-                           full_map_every=args.map_every if args.rrd is not None else 0)
+                           every=args.every, full_map_every=args.map_every if args.rrd is not None else 0)
         slam_config = SlamConfig(n_particles=args.particles, resolution_m=args.resolution)
     except ValueError as err:
         return fail("run", err)
@@ -162,7 +171,8 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"(R={args.ranks} × K={args.samples}), mean sample diversity {summary.mean_diversity:.3f}; CPU "
           f"{summary.cpu_s:.1f} s ({100 * share:.1f} % recording), wall {summary.wall_s:.1f} s")
     if args.rrd is not None:
-        print(f"recording: {args.rrd}    watch it: rerun {args.rrd}")
+        print(f"recording: {args.rrd} ({summary.rrd_bytes / 1e6:.1f} MB; {summary.rrd_bytes_written / 1e6:.1f} MB "
+              f"before compaction)    watch it: rerun {args.rrd}")
     return 0
 
 
@@ -183,6 +193,7 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p.add_argument("--window", choices=["map", "robot"], default="map",
                    help="network input: the whole map shrunk to 64x64 (paper) or a robot-centred square")
     p.add_argument("--window-m", type=float, default=12.8, help="side of the robot-centred window (default 12.8 m)")
+    p.add_argument("--every", type=int, default=1, help="complete at every N-th filter update (default 1: each)")
     p.add_argument("--map-every", type=int, default=5,
                    help="with --rrd: record the best full-resolution map every N completions (default 5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the filter and of the samples")

@@ -20,7 +20,7 @@ Entities:
 | ``/world/mcn/rank{r}/window`` | MCN-SLAM: the network's window of the r-th best particle (Transform3D, metres) |
 | ``/world/mcn/rank{r}/window/partial`` | that particle's m_t on the window (64 × 64) |
 | ``/world/mcn/rank{r}/window/sample{k}`` | its k-th sampled completion |
-| ``…/window/mean``, ``…/window/uncertainty`` | the mean completion; per-cell entropy of the samples (image) |
+| ``…/window/mean``, ``…/window/uncertainty`` | the mean completion; entropy of the samples per cell (0–255, magma) |
 | ``/world/mcn/rank{r}/particle`` | that particle's pose |
 | ``/metrics/f_slam``, ``/metrics/f_completed``, ``/metrics/miou_unknown``, ``/metrics/sample_diversity`` | scalars |
 | ``/log`` | filter updates and resampling events (TextLog) |
@@ -49,7 +49,8 @@ from mcnkit.types import Frame, GridSpec, TernaryMap
 if TYPE_CHECKING:
     from mcnkit.mcn import StepResult
 
-__all__ = ["APPLICATION_ID", "RerunLogger", "mcn_blueprint", "recording_blueprint", "recording_viewer", "slam_blueprint"]
+__all__ = ["APPLICATION_ID", "RerunLogger", "mcn_blueprint", "optimize_recording", "recording_blueprint", "recording_viewer",
+           "slam_blueprint"]
 
 APPLICATION_ID = "mcnkit"
 _CLASSES = [(0, "free", (235, 235, 235)), (1, "unknown", (128, 128, 128)), (2, "occupied", (20, 20, 20))]
@@ -153,16 +154,27 @@ def recording_viewer(path: str | Path, size: tuple[int, int] = (1000, 560)) -> A
     return viewer
 
 
+def optimize_recording(path: str | Path) -> tuple[int, int]:
+    """Compacts a finished ``.rrd`` in place with ``rerun rrd optimize`` (many small chunks merged: about a third
+    of the size, the blueprint kept); returns the sizes before and after.  On failure the file is left as it was.
+    """
+    import subprocess
+    import sys
+
+    path = Path(path)
+    before = path.stat().st_size
+    tmp = path.with_name(path.name + ".optimized.partial")
+    done = subprocess.run([sys.executable, "-m", "rerun", "rrd", "optimize", str(path), "-o", str(tmp)],
+                          capture_output=True, text=True, check=False)
+    if done.returncode != 0 or not tmp.is_file() or tmp.stat().st_size == 0:
+        tmp.unlink(missing_ok=True)
+        return before, before
+    tmp.replace(path)
+    return before, path.stat().st_size
+
+
 def _ternary_classes(image: NDArray[np.float32]) -> NDArray[np.uint8]:
     return np.rint(np.asarray(image) * 2.0).astype(np.uint8)  # 0 / 0.5 / 1 -> 0 / 1 / 2
-
-
-def _uncertainty_rgb(u: NDArray[np.float32]) -> NDArray[np.uint8]:
-    """0 → dark blue, 1 → yellow (a short perceptual ramp), (H, W, 3)."""
-    u = np.clip(np.asarray(u, np.float32), 0.0, 1.0)[..., None]
-    lo, mid, hi = np.array([20, 30, 90]), np.array([200, 60, 90]), np.array([250, 230, 60])
-    rgb = np.where(u < 0.5, lo + (mid - lo) * (u / 0.5), mid + (hi - mid) * ((u - 0.5) / 0.5))
-    return rgb.astype(np.uint8)
 
 
 def _weight_colors(w: NDArray[np.float64]) -> NDArray[np.uint8]:
@@ -243,6 +255,8 @@ class RerunLogger:
         self.rec.log("/world/robot/pose", rr.Arrows2D.from_fields(colors=[[230, 40, 40]]), static=True)
         self.rec.log("/world/scan/hits", rr.Points2D.from_fields(radii=[0.03], colors=[[255, 160, 0]]), static=True)
         self._odom_path: list[NDArray[np.float64]] = []
+        self._updates = 0
+        self._paths_logged_at = 0
         self._scans: list[tuple[int, int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                                 NDArray[np.float64]]] = []
         self._closed = False
@@ -291,7 +305,10 @@ class RerunLogger:
                                 *((f"sample{k}", c.samples[r, k]) for k in range(c.samples.shape[1]))]:
                 self.rec.log(f"{base}/window/{name}",
                              rr.SegmentationImage(_ternary_classes(image), draw_order=-10.0))
-            self.rec.log(f"{base}/window/uncertainty", rr.Image(_uncertainty_rgb(c.uncertainty[r])))
+            # one byte per cell, drawn with a colour map (a third of an RGB image in the file)
+            u8 = np.rint(np.clip(c.uncertainty[r], 0.0, 1.0) * 255).astype(np.uint8)
+            self.rec.log(f"{base}/window/uncertainty",
+                         rr.DepthImage(u8, meter=255.0, colormap="magma", depth_range=[0.0, 255.0]))
             pose = result.slam.poses[int(c.particles[r])]
             self.rec.log(f"{base}/particle", rr.Points2D([pose[:2]], radii=0.15, colors=[[230, 40, 40]]))
         scores = dict(result.scores)
@@ -326,11 +343,15 @@ class RerunLogger:
             self._flush_scans()
         if step.updated:  # row-by-row logs below (and log_mcn_step's) happen at filter updates only
             self.set_time(step.index, step.stamp_ns)
-            self.rec.log("/world/robot/odom_path",
-                         rr.LineStrips2D([np.asarray(self._odom_path)], radii=0.02, colors=[[150, 150, 150]]))
-            if trajectory_xy is not None:
-                self.rec.log("/world/robot/trajectory",
-                             rr.LineStrips2D([trajectory_xy], radii=0.03, colors=[[0, 180, 0]]))
+            self._updates += 1
+            # whole paths, re-sent every max(1, updates/50) updates: a growing path without quadratic file size
+            if self._updates - self._paths_logged_at >= max(1, self._updates // 50):
+                self._paths_logged_at = self._updates
+                self.rec.log("/world/robot/odom_path",
+                             rr.LineStrips2D([np.asarray(self._odom_path)], radii=0.02, colors=[[150, 150, 150]]))
+                if trajectory_xy is not None:
+                    self.rec.log("/world/robot/trajectory",
+                                 rr.LineStrips2D([trajectory_xy], radii=0.03, colors=[[0, 180, 0]]))
             self.rec.log("/metrics/n_eff", rr.Scalars(step.neff))
             what = "filter update, particles resampled" if step.resampled else "filter update"
             self.rec.log("/log", rr.TextLog(f"scan {step.index}: {what} (N_eff {step.neff:.1f})",

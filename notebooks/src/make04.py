@@ -213,9 +213,11 @@ def sample_figure(net, name):
 
 sample_figure(ours, "ours (just trained)")"""),
 md("""## The shipped network
-`mcnkit/weights/unet-houseexpo` was trained the same way, longer and on more pairs, with a bigger U-net. Its
-model card (`unet-houseexpo.md`) says how; its metrics, as measured when it was shipped, are in
-`unet-houseexpo.metrics.json` — read here, not copied into this text."""),
+`mcnkit/weights/unet-houseexpo` was trained with the same code for longer and on more pairs, with a weight
+average (EMA) and flip-only augmentation (HouseExpo plans are not symmetric under transposition once padded to
+a square); the cell below prints its size next to ours. Its model card (`unet-houseexpo.md`) says how it was
+trained; its metrics, as measured when it was shipped, are in `unet-houseexpo.metrics.json` — read here, not
+copied into this text."""),
 code("""card = json.loads((WEIGHTS / "unet-houseexpo.metrics.json").read_text())
 tc = shipped_info.get("train_config", {})
 print(f"shipped unet-houseexpo: {sum(p.numel() for p in shipped.parameters()):,} parameters "
