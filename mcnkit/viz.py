@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from mcnkit.geometry import transform_points
 from mcnkit.slam.fastslam import SlamStep
-from mcnkit.types import Frame, GridSpec, TernaryMap
+from mcnkit.types import Frame, TernaryMap
 
 if TYPE_CHECKING:
     from mcnkit.mcn import StepResult
@@ -235,7 +235,7 @@ class RerunLogger:
 
     def __init__(self, path: str | Path, recording_id: str | None = None,
                  blueprint: rrb.Blueprint | None = None, *, notebook_viewer: bool = False,
-                 viewer_size: tuple[int, int] = (1000, 520)) -> None:
+                 viewer_size: tuple[int, int] = (1000, 520), flush_updates: int = 25) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         recording_id = recording_id or str(uuid.uuid4())
@@ -257,6 +257,9 @@ class RerunLogger:
         self._odom_path: list[NDArray[np.float64]] = []
         self._updates = 0
         self._paths_logged_at = 0
+        self.flush_updates = flush_updates
+        self._queued: dict[str, tuple[str, list[int], list[int], list[Any]]] = {}
+        self._completions_queued = 0
         self._scans: list[tuple[int, int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                                 NDArray[np.float64]]] = []
         self._closed = False
@@ -285,37 +288,85 @@ class RerunLogger:
             self.rec.log(m, rr.SegmentationImage(ternary.unknown_mask.astype(np.uint8), draw_order=-5.0,
                                                  opacity=0.35), static=static)
 
-    def _place(self, entity: str, spec: GridSpec) -> None:
-        self.rec.log(entity, rr.Transform3D(translation=[spec.origin_x_m, spec.origin_y_m, 0.0],
-                                            scale=[spec.resolution_m, spec.resolution_m, 1.0]))
-
     def log_mcn_step(self, frame: Frame, result: StepResult, trajectory_xy: NDArray[np.float64] | None = None) -> None:
         """One MCN-SLAM step: the SLAM part (:meth:`log_slam_step`), the best map when the step carries it, and
-        at completion steps every rank's m_t, samples, uncertainty and the scores."""
+        at completion steps every rank's m_t, samples, uncertainty and the scores.
+
+        The completion entities are queued and sent as columns every ``flush_updates`` completions and on
+        :meth:`close` (at once with a live notebook viewer): one ``send_columns`` per entity instead of one
+        ``log`` per image.
+        """
         self.log_slam_step(frame, result.slam, trajectory_xy)
         if result.best_map is not None:
             self.log_map("/world/map/estimate", result.best_map, mask=True)
         c = result.completion
         if c is None:
             return
+        step, stamp = result.slam.index, result.slam.stamp_ns
         for r, window in enumerate(c.windows):
             base = f"/world/mcn/rank{r}"
-            self._place(f"{base}/window", window)  # one transform for every image of the rank
+            # one transform for every image of the rank: the window's corner and cell size, in metres
+            self._queue(f"{base}/window", "place", step, stamp,
+                        np.array([window.origin_x_m, window.origin_y_m, window.resolution_m]))
             for name, image in [("partial", c.partial[r]), ("mean", c.mean[r]),
                                 *((f"sample{k}", c.samples[r, k]) for k in range(c.samples.shape[1]))]:
-                self.rec.log(f"{base}/window/{name}",
-                             rr.SegmentationImage(_ternary_classes(image), draw_order=-10.0))
+                self._queue(f"{base}/window/{name}", "segmentation", step, stamp, _ternary_classes(image))
             # one byte per cell, drawn with a colour map (a third of an RGB image in the file)
             u8 = np.rint(np.clip(c.uncertainty[r], 0.0, 1.0) * 255).astype(np.uint8)
-            self.rec.log(f"{base}/window/uncertainty",
-                         rr.DepthImage(u8, meter=255.0, colormap="magma", depth_range=[0.0, 255.0]))
-            pose = result.slam.poses[int(c.particles[r])]
-            self.rec.log(f"{base}/particle", rr.Points2D([pose[:2]], radii=0.15, colors=[[230, 40, 40]]))
+            self._queue(f"{base}/window/uncertainty", "depth", step, stamp, u8)
+            self._queue(f"{base}/particle", "point", step, stamp, result.slam.poses[int(c.particles[r]), :2].copy())
         scores = dict(result.scores)
         scores["sample_diversity"] = float(c.diversity[0])
         for key, value in scores.items():
             if key in _METRICS and np.isfinite(value):
-                self.rec.log(f"/metrics/{key}", rr.Scalars(value))
+                self._queue(f"/metrics/{key}", "scalar", step, stamp, float(value))
+        self._completions_queued += 1
+        if self.viewer is not None or self._completions_queued >= self.flush_updates:
+            self._flush_queued()
+
+    def _queue(self, entity: str, kind: str, step: int, stamp_ns: int, value: Any) -> None:
+        if entity not in self._queued:
+            self._queued[entity] = (kind, [], [], [])
+            if kind in ("segmentation", "depth"):  # static image format and style, once per entity
+                h, w = value.shape
+                fmt = rr.components.ImageFormat(width=w, height=h, color_model="L", channel_datatype="U8")
+                if kind == "segmentation":
+                    self.rec.log(entity, rr.SegmentationImage.from_fields(format=fmt, draw_order=-10.0), static=True)
+                else:
+                    self.rec.log(entity, rr.DepthImage.from_fields(format=fmt, meter=255.0, colormap="magma",
+                                                                   depth_range=[0.0, 255.0]), static=True)
+            elif kind == "point":
+                self.rec.log(entity, rr.Points2D.from_fields(radii=[0.15], colors=[[230, 40, 40]]), static=True)
+        queue = self._queued[entity]
+        queue[1].append(step)
+        queue[2].append(stamp_ns)
+        queue[3].append(value)
+
+    def _flush_queued(self) -> None:
+        """Sends every queued completion entity as one column chunk."""
+        for entity, (kind, steps, stamps, values) in self._queued.items():
+            if not steps:
+                continue
+            index = [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
+                     rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
+            n = len(steps)
+            if kind == "segmentation":
+                columns: Any = rr.SegmentationImage.columns(buffer=np.stack(values).reshape(n, -1))
+            elif kind == "depth":
+                columns = rr.DepthImage.columns(buffer=np.stack(values).reshape(n, -1))
+            elif kind == "place":
+                v = np.asarray(values)
+                columns = rr.Transform3D.columns(translation=np.c_[v[:, 0], v[:, 1], np.zeros(n)],
+                                                 scale=np.c_[v[:, 2], v[:, 2], np.ones(n)])
+            elif kind == "point":
+                columns = rr.Points2D.columns(positions=np.asarray(values))
+            else:
+                columns = rr.Scalars.columns(scalars=np.asarray(values, np.float64))
+            self.rec.send_columns(entity, index, columns)
+            steps.clear()
+            stamps.clear()
+            values.clear()
+        self._completions_queued = 0
 
     def log_ground_truth(self, ternary: TernaryMap) -> None:
         """The ground-truth map (static: the same at every step)."""
@@ -324,9 +375,9 @@ class RerunLogger:
     def log_slam_step(self, frame: Frame, step: SlamStep, trajectory_xy: NDArray[np.float64] | None = None) -> None:
         """Particles, best pose, scan hits, odometry path and N_eff of one filter step.
 
-        The per-scan entities (particles, pose, hits) are buffered and sent as columns (``send_columns``) at the
-        next filter update and on :meth:`close`, which costs a fraction of one ``log`` call per scan; with a live
-        notebook viewer every scan is sent at once.
+        The per-scan entities (particles, pose, hits) are buffered and sent as columns (``send_columns``) every
+        ``flush_updates`` filter updates and on :meth:`close`, which costs a fraction of one ``log`` call per scan;
+        with a live notebook viewer every scan is sent at once.
         """
         w = np.asarray(step.weights, dtype=np.float64)
         pose = np.asarray(step.best_pose, dtype=np.float64)
@@ -339,11 +390,12 @@ class RerunLogger:
         hits = np.stack([laser[0] + r * np.cos(yaw + angles), laser[1] + r * np.sin(yaw + angles)], axis=1)
         self._scans.append((step.index, step.stamp_ns, step.poses[:, :2].copy(), w, pose, hits))
         self._odom_path.append(frame.odom.as_array()[:2])
-        if step.updated or self.viewer is not None:
-            self._flush_scans()
         if step.updated:  # row-by-row logs below (and log_mcn_step's) happen at filter updates only
-            self.set_time(step.index, step.stamp_ns)
             self._updates += 1
+        if self.viewer is not None or (step.updated and self._updates % self.flush_updates == 0):
+            self._flush_scans()
+        if step.updated:
+            self.set_time(step.index, step.stamp_ns)
             # whole paths, re-sent every max(1, updates/50) updates: a growing path without quadratic file size
             if self._updates - self._paths_logged_at >= max(1, self._updates // 50):
                 self._paths_logged_at = self._updates
@@ -368,7 +420,7 @@ class RerunLogger:
         n = [len(p) for p in particles]
         w_all = np.concatenate(weights)
         w_rel = np.concatenate([w / max(float(w.max()), 1e-12) for w in weights])
-        self.rec.send_columns("/world/particles", index, [
+        self.rec.send_columns("/world/particles", index, [  # weights attached to every particle
             *rr.Points2D.columns(positions=np.concatenate(particles), radii=0.02 + 0.08 * w_rel,
                                  colors=_weight_colors(w_rel)).partition(n),
             *rr.AnyValues.columns(weight=w_all, particle_id=np.concatenate([np.arange(k) for k in n])).partition(n)])
@@ -384,6 +436,7 @@ class RerunLogger:
         if not self._closed:
             self._closed = True
             self._flush_scans()
+            self._flush_queued()
             self.rec.flush()
             self.rec.disconnect()
 
