@@ -250,8 +250,6 @@ class RerunLogger:
             rr.AnnotationInfo(id=0, label="known", color=(0, 0, 0, 0)),
             rr.AnnotationInfo(id=1, label="unknown", color=(255, 0, 255, 90))]), static=True)
         self.rec.log("/metrics/n_eff", rr.SeriesLines(names="N_eff", colors=[[30, 120, 220]], widths=2), static=True)
-        for key, (color, label) in _METRICS.items():
-            self.rec.log(f"/metrics/{key}", rr.SeriesLines(names=label, colors=[color], widths=2), static=True)
         self.rec.log("/world/robot/pose", rr.Arrows2D.from_fields(colors=[[230, 40, 40]]), static=True)
         self.rec.log("/world/scan/hits", rr.Points2D.from_fields(radii=[0.03], colors=[[255, 160, 0]]), static=True)
         self._odom_path: list[NDArray[np.float64]] = []
@@ -337,6 +335,9 @@ class RerunLogger:
                                                                    depth_range=[0.0, 255.0]), static=True)
             elif kind == "point":
                 self.rec.log(entity, rr.Points2D.from_fields(radii=[0.15], colors=[[230, 40, 40]]), static=True)
+            elif kind == "scalar":  # the series' name and colour (MCN scores only exist in MCN recordings)
+                color, label = _METRICS[entity.rsplit("/", 1)[-1]]
+                self.rec.log(entity, rr.SeriesLines(names=label, colors=[color], widths=2), static=True)
         queue = self._queued[entity]
         queue[1].append(step)
         queue[2].append(stamp_ns)
