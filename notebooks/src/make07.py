@@ -43,7 +43,9 @@ PARTICLES = 8 if CI else 30
 SAMPLES = 4 if CI else 8
 MODELS = ("unet", "pix2pix")
 THREADS = 1
-OUT = Path("out")                      # this notebook's outputs (git-ignored): out/07/"""),
+OUT = Path("out")                      # this notebook's outputs (git-ignored): out/07/
+WATCH_SCANS = 150 if CI else None      # the recorded MCN-SLAM run on the Intel log (None: all 910 scans)
+VIEWER = not CI                        # the embedded Rerun viewer needs a browser front end"""),
 code("""import time
 
 import matplotlib.pyplot as plt
@@ -135,6 +137,39 @@ From a terminal:
 ```bash
 mcnkit experiment exp3 --out results/exp3
 ```"""),
+md("""## Watch MCN-SLAM on the Intel lab
+The experiment above completes windows offline at five points. Here the same network runs *inside* the filter on
+the Intel log (`mcnkit.run.run_mcn`): at every 4th filter update the two best particles' maps are completed four
+times each (the whole map shrunk to 64 × 64, as in the paper), and every step is recorded to a Rerun file —
+the same recording `recordings/intel_lab.rrd` holds for the whole log. Without a front end (CI) no viewer is
+created: the static figure below shows the last completions, and the `.rrd` is written all the same."""),
+code("""import itertools
+
+import torch
+
+from mcnkit.io import open_log
+from mcnkit.mcn import McnConfig, McnSlam, load_model
+from mcnkit.plots import completion_figure
+from mcnkit.run import run_mcn
+from mcnkit.slam import SlamConfig
+
+rrd = OUT / "07" / "intel_mcn.rrd"
+last = []
+with open_log(LOGS[1]) as log:
+    frames = list(itertools.islice(log.frames(), WATCH_SCANS))
+mcn = McnSlam(SlamConfig(n_particles=PARTICLES), load_model("unet"), McnConfig(samples=4, ranks=2, every=4,
+              full_map_every=10), np.random.default_rng(SEED), generator=torch.Generator().manual_seed(SEED))
+summary = run_mcn(frames, mcn, rrd=rrd, progress=False,
+                  on_step=lambda f, r: last.__setitem__(slice(None), [r]) if r.completion is not None else None)
+print(f"{summary.scans} scans, {summary.filter_updates} filter updates, {summary.completions} completions, "
+      f"mean sample diversity {summary.mean_diversity:.3f}; {rrd} ({summary.rrd_bytes / 1e6:.1f} MB)")
+completion_figure(last[0].completion)"""),
+code("""if VIEWER:
+    from mcnkit.widgets import recording_player
+
+    display(recording_player(rrd, summary.scans))
+else:
+    print(f"no front end: open {rrd} with `rerun {rrd}`")"""),
 ]
 for i, cell in enumerate(nb.cells):
     cell.id = f"nb07-{i:02d}"  # stable ids: regenerating gives the same file
