@@ -26,80 +26,14 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from mcnkit.slam.maps import cast_scan, scan_end_points
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, TernaryMap
 
-__all__ = ["LineageMap", "counts_to_ternary"]
+__all__ = ["LineageMap"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
 I32 = NDArray[np.int32]
-
-
-@numba.njit(cache=True, inline="always")
-def _rank(hits: int, n: int, occ_thresh: float) -> int:
-    """0 unknown (never seen), 1 free, 2 occupied (``hits / n > occ_thresh``)."""
-    if n <= 0:
-        return 0
-    return 2 if hits > occ_thresh * n else 1
-
-
-@numba.njit(cache=True)
-def _beam_ends(
-    lx: float, ly: float, lt: float, ranges: NDArray[np.float32], angles: F64, max_range: float, usable: float,
-) -> tuple[F64, F64, NDArray[np.bool_]]:
-    """End points of the usable beams of one scan from laser pose (lx, ly, lt), and which of them are hits.
-
-    A beam is used when finite, > 0 and ≤ ``max_range``; it is cut at ``usable`` and then marks no hit."""
-    n = 0
-    for i in range(ranges.shape[0]):
-        r = ranges[i]
-        if np.isfinite(r) and r > 0 and r <= max_range:
-            n += 1
-    ex = np.empty(n)
-    ey = np.empty(n)
-    hit = np.empty(n, np.bool_)
-    j = 0
-    for i in range(ranges.shape[0]):
-        r = float(ranges[i])
-        if np.isfinite(r) and r > 0 and r <= max_range:
-            d = min(r, usable)
-            ex[j] = lx + d * math.cos(lt + angles[i])
-            ey[j] = ly + d * math.sin(lt + angles[i])
-            hit[j] = r < usable
-            j += 1
-    return ex, ey, hit
-
-
-@numba.njit(cache=True)
-def _cast_signed(
-    hits: I32, passes: I32, ranks: NDArray[np.int8], ix0: int, iy0: int, res: float,
-    lx: float, ly: float, ex: F64, ey: F64, is_hit: NDArray[np.bool_], sign: int, occ_thresh: float,
-) -> None:
-    """Bresenham from the laser at (lx, ly) to each end cell: ``sign`` added to passes on the way and to the hit
-    cell; the rank of every touched cell is brought up to date."""
-    x0 = int(math.floor(lx / res)) - ix0
-    y0 = int(math.floor(ly / res)) - iy0
-    for k in range(ex.shape[0]):
-        x1 = int(math.floor(ex[k] / res)) - ix0
-        y1 = int(math.floor(ey[k] / res)) - iy0
-        dx, dy = abs(x1 - x0), -abs(y1 - y0)
-        stx = 1 if x0 < x1 else -1
-        sty = 1 if y0 < y1 else -1
-        err = dx + dy
-        x, y = x0, y0
-        while x != x1 or y != y1:
-            passes[y, x] += sign
-            ranks[y, x] = _rank(hits[y, x], hits[y, x] + passes[y, x], occ_thresh)
-            e2 = 2 * err
-            if e2 >= dy:
-                err += dy
-                x += stx
-            if e2 <= dx:
-                err += dx
-                y += sty
-        if is_hit[k]:
-            hits[y1, x1] += sign
-            ranks[y1, x1] = _rank(hits[y1, x1], hits[y1, x1] + passes[y1, x1], occ_thresh)
 
 
 @numba.njit(cache=True)
@@ -132,16 +66,6 @@ def _pool(
 
 
 _VALUE_OF_RANK = np.array([UNKNOWN, FREE, OCCUPIED], np.float32)
-
-
-def counts_to_ternary(hits: NDArray[np.integer], passes: NDArray[np.integer], occ_thresh: float) -> F32:
-    """Hit/pass counts → the paper's ternary image: occupied where ``hits / (hits + passes) > occ_thresh``,
-    free where seen otherwise, unknown where never seen (the rule of :func:`~mcnkit.slam.counts_to_grid`)."""
-    n = hits.astype(np.float32) + passes
-    out = np.full(hits.shape, UNKNOWN, np.float32)
-    out[n > 0] = FREE
-    out[hits > occ_thresh * n] = OCCUPIED
-    return out
 
 
 class LineageMap:
@@ -203,7 +127,7 @@ class LineageMap:
         c, sn = math.cos(pose[2]), math.sin(pose[2])
         bx, by, bt = self.base_to_laser
         lx, ly, lt = pose[0] + c * bx - sn * by, pose[1] + sn * bx + c * by, pose[2] + bt
-        ex, ey, hit = _beam_ends(lx, ly, lt, np.asarray(ranges_m, np.float32), self.angles_rad, self.max_range_m,
+        ex, ey, hit = scan_end_points(lx, ly, lt, np.asarray(ranges_m, np.float32), self.angles_rad, self.max_range_m,
                                  self.usable_m)
         res = self.resolution_m
         lo = np.array([math.floor(min(ex.min(initial=lx), lx) / res), math.floor(min(ey.min(initial=ly), ly) / res)])
@@ -211,7 +135,7 @@ class LineageMap:
         self._ensure(lo, hi)
         self._seen_lo = np.minimum(self._seen_lo, lo)
         self._seen_hi = np.maximum(self._seen_hi, hi)
-        _cast_signed(self.hits, self.passes, self.ranks, self.ix0, self.iy0, res, lx, ly, ex, ey, hit, sign,
+        cast_scan(self.hits, self.passes, self.ranks, self.ix0, self.iy0, res, lx, ly, ex, ey, hit, sign,
                      self.occ_thresh)
 
     def _ensure(self, lo: NDArray[np.int64], hi: NDArray[np.int64]) -> None:

@@ -9,7 +9,8 @@ copies it (copy on write).  The table grows by ``enlarge_m`` when a scan leaves 
 
 **Output map** (:func:`ray_cast_counts`): what the ROS node publishes, rebuilt from one trajectory: for
 every scan, the cells a beam passes through get a pass and its end cell a hit; occupancy is
-``hits / (hits + passes)`` (unknown where both are zero).
+``hits / (hits + passes)`` (unknown where both are zero).  One Bresenham kernel (:func:`cast_scan`, which also
+subtracts a scan) serves it and :class:`~mcnkit.slam.lineage.LineageMap`.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from numpy.typing import NDArray
 
 from mcnkit.types import GridSpec
 
-__all__ = ["TiledHitMaps", "cell_of", "ray_cast_counts"]
+__all__ = ["TiledHitMaps", "cast_scan", "cell_of", "ray_cast_counts", "scan_end_points"]
 
 F64 = NDArray[np.float64]
 I32 = NDArray[np.int32]
@@ -250,42 +251,71 @@ class TiledHitMaps:
         return spec, hits, mx, my
 
 
+@numba.njit(cache=True, inline="always")
+def _rank(hits: int, n: int, occ_thresh: float) -> int:
+    """0 unknown (never seen), 1 free, 2 occupied (``hits / n > occ_thresh``)."""
+    if n <= 0:
+        return 0
+    return 2 if hits > occ_thresh * n else 1
+
+
 @numba.njit(cache=True)
-def _ray_cast(
-    hits: U16,
-    passes: U16,
-    ix0: int,
-    iy0: int,
-    res: float,
-    start_x: F64,
-    start_y: F64,
-    end_x: F64,
-    end_y: F64,
-    is_hit: NDArray[np.bool_],
+def scan_end_points(
+    lx: float, ly: float, lt: float, ranges: NDArray[np.float32], angles: F64, max_range: float, usable: float,
+) -> tuple[F64, F64, NDArray[np.bool_]]:
+    """End points of the usable beams of one scan from laser pose (lx, ly, lt), and which of them are hits.
+
+    A beam is used when finite, > 0 and ≤ ``max_range``; it is cut at ``usable`` and then marks no hit."""
+    n = 0
+    for i in range(ranges.shape[0]):
+        r = ranges[i]
+        if np.isfinite(r) and r > 0 and r <= max_range:
+            n += 1
+    ex = np.empty(n)
+    ey = np.empty(n)
+    hit = np.empty(n, np.bool_)
+    j = 0
+    for i in range(ranges.shape[0]):
+        r = float(ranges[i])
+        if np.isfinite(r) and r > 0 and r <= max_range:
+            d = min(r, usable)
+            ex[j] = lx + d * math.cos(lt + angles[i])
+            ey[j] = ly + d * math.sin(lt + angles[i])
+            hit[j] = r < usable
+            j += 1
+    return ex, ey, hit
+
+
+@numba.njit(cache=True)
+def cast_scan(
+    hits: I32, passes: I32, ranks: NDArray[np.int8], ix0: int, iy0: int, res: float,
+    lx: float, ly: float, ex: F64, ey: F64, is_hit: NDArray[np.bool_], sign: int, occ_thresh: float,
 ) -> None:
-    """Bresenham from each start to each end cell: passes on the way, a hit at the end when ``is_hit``."""
-    for k in range(start_x.shape[0]):
-        x0 = int(math.floor(start_x[k] / res)) - ix0
-        y0 = int(math.floor(start_y[k] / res)) - iy0
-        x1 = int(math.floor(end_x[k] / res)) - ix0
-        y1 = int(math.floor(end_y[k] / res)) - iy0
+    """Bresenham from the laser at (lx, ly) to each end cell: ``sign`` added to passes on the way and to the hit
+    cell; the rank of every touched cell is brought up to date."""
+    x0 = int(math.floor(lx / res)) - ix0
+    y0 = int(math.floor(ly / res)) - iy0
+    for k in range(ex.shape[0]):
+        x1 = int(math.floor(ex[k] / res)) - ix0
+        y1 = int(math.floor(ey[k] / res)) - iy0
         dx, dy = abs(x1 - x0), -abs(y1 - y0)
-        sx = 1 if x0 < x1 else -1
-        sy = 1 if y0 < y1 else -1
+        stx = 1 if x0 < x1 else -1
+        sty = 1 if y0 < y1 else -1
         err = dx + dy
         x, y = x0, y0
         while x != x1 or y != y1:
-            if passes[y, x] < 65535:  # uint16, saturating
-                passes[y, x] += 1
+            passes[y, x] += sign
+            ranks[y, x] = _rank(hits[y, x], hits[y, x] + passes[y, x], occ_thresh)
             e2 = 2 * err
             if e2 >= dy:
                 err += dy
-                x += sx
+                x += stx
             if e2 <= dx:
                 err += dx
-                y += sy
-        if is_hit[k] and hits[y1, x1] < 65535:
-            hits[y1, x1] += 1
+                y += sty
+        if is_hit[k]:
+            hits[y1, x1] += sign
+            ranks[y1, x1] = _rank(hits[y1, x1], hits[y1, x1] + passes[y1, x1], occ_thresh)
 
 
 def ray_cast_counts(
@@ -302,24 +332,21 @@ def ray_cast_counts(
     Beams that are not finite, zero, or longer than ``max_range_m`` are skipped; beams longer than
     ``max_usable_range_m`` clear space up to that range and mark no hit (gmapping's rule).
     """
-    r = np.asarray(ranges_m, dtype=np.float64)
-    with np.errstate(invalid="ignore"):
-        use = np.isfinite(r) & (r > 0) & (r <= max_range_m)
-    hit = use & (r < max_usable_range_m)
-    d = np.minimum(np.where(use, r, 0.0), max_usable_range_m)
-    a = laser_poses[:, 2:3] + angles_rad[None, :]
-    ex = (laser_poses[:, 0:1] + d * np.cos(a))[use]
-    ey = (laser_poses[:, 1:2] + d * np.sin(a))[use]
-    sx = np.broadcast_to(laser_poses[:, 0:1], r.shape)[use]
-    sy = np.broadcast_to(laser_poses[:, 1:2], r.shape)[use]
-    allx = np.concatenate([ex, laser_poses[:, 0]])
-    ally = np.concatenate([ey, laser_poses[:, 1]])
+    r = np.asarray(ranges_m)
+    lasers = np.asarray(laser_poses, np.float64)
+    ends = [scan_end_points(lx, ly, lt, r[k], angles_rad, max_range_m, max_usable_range_m)
+            for k, (lx, ly, lt) in enumerate(lasers)]
+    allx = np.concatenate([e[0] for e in ends] + [lasers[:, 0]])
+    ally = np.concatenate([e[1] for e in ends] + [lasers[:, 1]])
     ix0 = math.floor((allx.min() - margin_m) / resolution_m)
     iy0 = math.floor((ally.min() - margin_m) / resolution_m)
     width = math.floor((allx.max() + margin_m) / resolution_m) - ix0 + 1
     height = math.floor((ally.max() + margin_m) / resolution_m) - iy0 + 1
     spec = GridSpec(resolution_m, ix0 * resolution_m, iy0 * resolution_m, width, height)
-    hits = np.zeros(spec.shape, np.uint16)  # saturating counts: half the memory of int32
-    passes = np.zeros(spec.shape, np.uint16)
-    _ray_cast(hits, passes, ix0, iy0, resolution_m, sx.copy(), sy.copy(), ex, ey, hit[use])
-    return spec, hits, passes
+    hits = np.zeros(spec.shape, np.int32)
+    passes = np.zeros(spec.shape, np.int32)
+    ranks = np.zeros(spec.shape, np.int8)  # kept by the kernel; not needed here
+    for (lx, ly, _lt), (ex, ey, hit) in zip(lasers, ends, strict=True):
+        cast_scan(hits, passes, ranks, ix0, iy0, resolution_m, lx, ly, ex, ey, hit, 1, 0.5)
+    # saturating uint16 counts: half the memory of int32 in what is kept
+    return spec, np.minimum(hits, 65535).astype(np.uint16), np.minimum(passes, 65535).astype(np.uint16)
