@@ -10,12 +10,8 @@ the parsed options).
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from mcnkit.experiments.exp2 import Exp2Config, add_exp2_arguments, exp2_config_from_args, run_exp2
-    from mcnkit.experiments.exp3 import Exp3Config, add_exp3_arguments, exp3_config_from_args, run_exp3
+from mcnkit.experiments.exp2 import Exp2Config, add_exp2_arguments, exp2_config_from_args, run_exp2
+from mcnkit.experiments.exp3 import Exp3Config, add_exp3_arguments, exp3_config_from_args, run_exp3
 
 __all__ = [
     "Exp2Config",
@@ -27,11 +23,3 @@ __all__ = [
     "run_exp2",
     "run_exp3",
 ]
-
-
-def __getattr__(name: str) -> Any:
-    """Imports lazily, so ``python -m mcnkit.experiments.exp2`` does not find its module imported already."""
-    if name in __all__:
-        module = "exp2" if "2" in name else "exp3"
-        return getattr(importlib.import_module(f"mcnkit.experiments.{module}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

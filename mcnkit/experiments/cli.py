@@ -10,34 +10,34 @@ Each writes a CSV, a Markdown report (also printed) and PNG figures into ``--out
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from typing import Any
 
 __all__ = ["add_experiment_parser"]
 
 
-def _run(name: str, args: argparse.Namespace) -> int:
-    from mcnkit.cli import fail
-    from mcnkit.completion.checkpoint import CheckpointError
+def _runner(run: Callable[[Any], str], config_from_args: Callable[[argparse.Namespace], Any]
+            ) -> Callable[[argparse.Namespace], int]:
+    """The command function of one experiment: build its config, run it, print its Markdown report."""
 
-    try:
-        if name == "exp2":
-            from mcnkit.experiments.exp2 import exp2_config_from_args, run_exp2
+    def command(args: argparse.Namespace) -> int:
+        from mcnkit.cli import fail
+        from mcnkit.completion.checkpoint import CheckpointError
 
-            print(run_exp2(exp2_config_from_args(args)))
-        else:
-            from mcnkit.experiments.exp3 import exp3_config_from_args, run_exp3
+        try:
+            print(run(config_from_args(args)))
+        except (CheckpointError, ValueError) as err:
+            return fail("experiment", err)
+        return 0
 
-            print(run_exp3(exp3_config_from_args(args)))
-    except (CheckpointError, ValueError) as err:
-        return fail("experiment", err)
-    return 0
+    return command
 
 
 def add_experiment_parser(subparsers: Any) -> None:
     """Adds ``experiment`` with one sub-command per experiment."""
     from mcnkit.completion.cli import add_exp1_arguments, cmd_experiment
-    from mcnkit.experiments.exp2 import add_exp2_arguments
-    from mcnkit.experiments.exp3 import add_exp3_arguments
+    from mcnkit.experiments.exp2 import add_exp2_arguments, exp2_config_from_args, run_exp2
+    from mcnkit.experiments.exp3 import add_exp3_arguments, exp3_config_from_args, run_exp3
 
     p = subparsers.add_parser("experiment", help="run one of the paper's experiments (exp1, exp2, exp3)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -47,7 +47,7 @@ def add_experiment_parser(subparsers: Any) -> None:
     e1.set_defaults(func=cmd_experiment)
     e2 = sub.add_parser("exp2", help="MCN-SLAM on simulated HouseExpo houses: iteration 1 and T-5 (paper Exp 2)")
     add_exp2_arguments(e2)
-    e2.set_defaults(func=lambda args: _run("exp2", args))
+    e2.set_defaults(func=_runner(run_exp2, exp2_config_from_args))
     e3 = sub.add_parser("exp3", help="the real labs, MIT CSAIL and Intel, along the run (paper Exp 3)")
     add_exp3_arguments(e3)
-    e3.set_defaults(func=lambda args: _run("exp3", args))
+    e3.set_defaults(func=_runner(run_exp3, exp3_config_from_args))

@@ -37,11 +37,8 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
-import sys
 import tempfile
 import time
-from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -66,7 +63,7 @@ from mcnkit.experiments.common import (
 from mcnkit.grid import pool_to_window
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec
 
-__all__ = ["CSV_COLUMNS", "PAPER", "Exp2Config", "add_exp2_arguments", "exp2_config_from_args", "main", "run_exp2"]
+__all__ = ["CSV_COLUMNS", "PAPER", "Exp2Config", "add_exp2_arguments", "exp2_config_from_args", "run_exp2"]
 
 F32 = NDArray[np.float32]
 
@@ -619,20 +616,3 @@ def exp2_config_from_args(args: argparse.Namespace) -> Exp2Config:
                       cache_dir=args.cache, maps=tuple(args.maps or ()), curve=not args.no_curve,
                       progress=not args.quiet)
 
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m mcnkit.experiments.exp2 --out DIR [...]``: runs Experiment 2 and prints the report."""
-    parser = add_exp2_arguments(argparse.ArgumentParser(prog="mcnkit experiment exp2", description=__doc__,
-                                                        formatter_class=argparse.RawDescriptionHelpFormatter))
-    args = parser.parse_args(argv)
-    try:
-        print(run_exp2(exp2_config_from_args(args)))
-    except (ValueError, FileNotFoundError) as err:
-        print(f"mcnkit experiment exp2: {err}", file=sys.stderr)
-        return 2
-    return 0
-
-
-if __name__ == "__main__":
-    os.environ.setdefault("RERUN_ANALYTICS", "0")
-    sys.exit(main())

@@ -29,10 +29,9 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass
 from itertools import islice
 from pathlib import Path
@@ -56,7 +55,7 @@ from mcnkit.experiments.common import (
 from mcnkit.grid import pool_to_window
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, Frame, GridSpec, TernaryMap
 
-__all__ = ["CSV_COLUMNS", "Exp3Config", "add_exp3_arguments", "default_logs", "exp3_config_from_args", "main",
+__all__ = ["CSV_COLUMNS", "Exp3Config", "add_exp3_arguments", "default_logs", "exp3_config_from_args",
            "run_exp3"]
 
 F32 = NDArray[np.float32]
@@ -386,19 +385,3 @@ def exp3_config_from_args(args: argparse.Namespace) -> Exp3Config:
                       threads=args.threads, max_scans=args.max_scans, convert=not args.no_convert,
                       progress=not args.quiet)
 
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m mcnkit.experiments.exp3 --out DIR [...]``: runs Experiment 3 and prints the report."""
-    parser = add_exp3_arguments(argparse.ArgumentParser(prog="mcnkit experiment exp3", description=__doc__,
-                                                        formatter_class=argparse.RawDescriptionHelpFormatter))
-    args = parser.parse_args(argv)
-    try:
-        print(run_exp3(exp3_config_from_args(args)))
-    except (ValueError, FileNotFoundError) as err:
-        print(f"mcnkit experiment exp3: {err}", file=sys.stderr)
-        return 2
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
