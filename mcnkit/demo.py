@@ -22,14 +22,14 @@ import torch
 
 from mcnkit.io import open_log
 from mcnkit.io.cli import describe, print_info
-from mcnkit.mcn import McnConfig, McnSlam, StepResult, load_model
+from mcnkit.mcn import McnConfig, McnSlam, load_model
 from mcnkit.metrics import absolute_trajectory_error, write_tum
 from mcnkit.plots import completion_figure
 from mcnkit.run import run_mcn
 from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
 from mcnkit.slam import SlamConfig
 from mcnkit.slam.cli import write_map
-from mcnkit.types import Frame, TernaryMap
+from mcnkit.types import TernaryMap
 
 __all__ = ["DemoResult", "add_demo_parser", "run_demo"]
 
@@ -72,19 +72,13 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
           f"update ({model}), recording every step to {rrd}")
     mcn = McnSlam(SlamConfig(n_particles=particles), load_model(model), McnConfig(samples=samples, ranks=ranks),
                   np.random.default_rng(seed), generator=torch.Generator().manual_seed(seed), ground_truth=truth)
-    last: list[StepResult] = []
-
-    def keep_last(_frame: Frame, result: StepResult) -> None:
-        if result.completion is not None:
-            last[:] = [result]
-
     summary = run_mcn(frames, mcn, rrd=rrd, recording_id=f"demo-apartment{apartment}-seed{seed}",
-                      ground_truth=truth, progress=progress, on_step=keep_last)
+                      ground_truth=truth, progress=progress)
     write_tum(out / "trajectory.tum", mcn.slam.trajectory())
     write_map(mcn.slam.best_map(), out)
     completion_png = out / "completion.png"
-    if last and last[0].completion is not None:
-        completion_figure(last[0].completion).savefig(completion_png, dpi=100)
+    if summary.last_completion is not None:
+        completion_figure(summary.last_completion).savefig(completion_png, dpi=100)
     ate_slam = absolute_trajectory_error(mcn.slam.trajectory(), sim.ground_truth)
     ate_odom = absolute_trajectory_error(sim.odometry, sim.ground_truth)
     first, final = summary.scores[0], summary.scores[-1]

@@ -40,7 +40,7 @@ import torch
 from numpy.typing import NDArray
 
 from mcnkit.completion.nets import UNet
-from mcnkit.completion.sample import label_entropy, sample_completions
+from mcnkit.completion.sample import inference_net, label_entropy, sample_completions
 from mcnkit.completion.scores import miou_unknown, score_maps
 from mcnkit.geometry import compose
 from mcnkit.grid import network_to_ternary, pool_to_window, ternary_to_network
@@ -217,7 +217,7 @@ class McnSlam:
             return StepResult(s)
         ranks = self.slam.ranking()[: cfg.ranks]
         slots = self._sync(ranks)
-        completion = self._complete(ranks, slots, s.best_pose)
+        completion = self._complete(ranks, slots)
         self.n_completions += 1
         best_map = None
         if cfg.full_map_every and (self.n_completions - 1) % cfg.full_map_every == 0:
@@ -262,17 +262,20 @@ class McnSlam:
             return robot_window(pose[:2], cfg.size, cfg.window_m)
         return map_window(lineage.seen_bounds_m(), cfg.size, cfg.margin_m, res)
 
-    def _complete(self, ranks: I64, slots: list[int], best_pose: F64) -> Completion:
-        cfg = self.config
+    def _network_input(self, particles: I64, slots: list[int]) -> tuple[tuple[GridSpec, ...], F32]:
+        """Each particle's window (a robot window centres on that particle) and its m_t pooled onto it."""
         poses = self.slam.poses
-        windows = tuple(self._window(self.lineages[j], poses[p] if cfg.window == "robot" else best_pose)
-                        for p, j in zip(ranks, slots, strict=True))
+        windows = tuple(self._window(self.lineages[j], poses[p]) for p, j in zip(particles, slots, strict=True))
         partial = np.stack([self.lineages[j].pooled(w) for j, w in zip(slots, windows, strict=True)])
+        return windows, partial.astype(np.float32)
+
+    def _complete(self, ranks: I64, slots: list[int]) -> Completion:
+        cfg = self.config
+        windows, partial = self._network_input(ranks, slots)
         s = sample_completions(self.model, partial, cfg.samples, self.generator, self.device)
         samples = _copy_observed(s.samples, partial[:, None])
         mean = _copy_observed(s.mean, partial)
-        return Completion(np.asarray(ranks, np.int64), windows, partial.astype(np.float32), samples, mean,
-                          label_entropy(samples))
+        return Completion(np.asarray(ranks, np.int64), windows, partial, samples, mean, label_entropy(samples))
 
     def _score(self, c: Completion) -> dict[str, float]:
         if self.ground_truth is None:
@@ -288,12 +291,11 @@ class McnSlam:
 
     def _prepare_weighting(self) -> None:
         """Deterministic completion of every particle's map, kept for the next update's weights."""
-        n = self.slam.config.n_particles
-        poses = self.slam.poses
-        windows = tuple(self._window(self.lineages[i], poses[i]) for i in range(n))
-        partial = np.stack([self.lineages[i].pooled(w) for i, w in zip(range(n), windows, strict=True)])
-        with torch.no_grad():
-            out = self.model(torch.from_numpy(ternary_to_network(partial)).to(self.device)).cpu().numpy()
+        particles = np.arange(self.slam.config.n_particles)
+        windows, partial = self._network_input(particles, [int(p) for p in particles])
+        with torch.inference_mode():
+            x = torch.from_numpy(ternary_to_network(partial)).to(self.device)
+            out = inference_net(self.model)(x).cpu().numpy()
         p_occ = np.clip(out[:, 0], 0.0, 1.0)
         known = network_to_ternary(out) != UNKNOWN
         self._weighting = (np.where(known, p_occ, 0.5).astype(np.float32), partial, windows)

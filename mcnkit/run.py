@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from mcnkit.mcn import MODELS, McnConfig, McnSlam, StepResult, load_model
+from mcnkit.mcn import MODELS, Completion, McnConfig, McnSlam, StepResult, load_model
 from mcnkit.slam.config import SlamConfig
 from mcnkit.types import Frame, TernaryMap
 
@@ -51,10 +51,12 @@ class RunSummary:
     rrd_bytes: int = 0
     scores: list[dict[str, float]] = field(default_factory=list)
     """Per completion, the step's scores against the ground truth (empty without one)."""
+    last_completion: Completion | None = field(default=None, repr=False)
+    """The run's last completion (for a figure); not part of :meth:`as_dict`."""
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return asdict(self)
+        """JSON-ready dict (without ``last_completion``)."""
+        return {k: v for k, v in asdict(self).items() if k != "last_completion"}
 
 
 def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, recording_id: str | None = None,
@@ -87,6 +89,7 @@ def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, r
             summary.scans += 1
             if result.completion is not None:
                 summary.completions += 1
+                summary.last_completion = result.completion
                 diversities.append(float(result.completion.diversity[0]))
                 if result.scores:
                     summary.scores.append(dict(result.scores))
@@ -122,13 +125,6 @@ def _write_outputs(out: Path, mcn: McnSlam, summary: RunSummary, args: argparse.
     (out / "summary.json").write_text(json.dumps(payload, indent=2) + "\n")
 
 
-def _last_completion_png(path: Path, result: StepResult) -> None:
-    from mcnkit.plots import completion_figure
-
-    assert result.completion is not None
-    completion_figure(result.completion).savefig(path, dpi=110)
-
-
 def cmd_run(args: argparse.Namespace) -> int:
     """``mcnkit run``: see the module docstring."""
     from mcnkit.cli import fail
@@ -148,24 +144,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         return fail("run", err)
     mcn = McnSlam(slam_config, model, config, np.random.default_rng(args.seed),
                   generator=torch.Generator().manual_seed(args.seed))
-    last: list[StepResult] = []
-
-    def keep_last(_frame: Frame, result: StepResult) -> None:
-        if result.completion is not None:
-            last[:] = [result]
-
     with open_log(args.log) as log:
         count = next((t.count for t in getattr(log, "topics", []) if t.name == getattr(log, "scan_topic", None)),
                      None)
         rec_id = f"mcn-{Path(args.log).stem}-{args.model if args.model in MODELS else 'custom'}-{args.seed}"
         summary = run_mcn(log.frames(), mcn, rrd=args.rrd, recording_id=rec_id, progress=not args.no_progress,
-                          total=count, on_step=keep_last)
+                          total=count)
     if summary.scans == 0:
         return fail("run", f"{args.log}: no scans")
     if args.out is not None:
         _write_outputs(args.out, mcn, summary, args)
-        if last:
-            _last_completion_png(args.out / "completion.png", last[0])
+        if summary.last_completion is not None:
+            from mcnkit.plots import completion_figure
+
+            completion_figure(summary.last_completion).savefig(args.out / "completion.png", dpi=110)
     share = summary.cpu_s_recording / max(summary.cpu_s, 1e-9)
     print(f"{summary.scans} scans, {summary.filter_updates} filter updates, {summary.completions} completions "
           f"(R={args.ranks} × K={args.samples}), mean sample diversity {summary.mean_diversity:.3f}; CPU "

@@ -154,16 +154,14 @@ from mcnkit.run import run_mcn
 from mcnkit.slam import SlamConfig
 
 rrd = OUT / "07" / "intel_mcn.rrd"
-last = []
 with open_log(LOGS[1]) as log:
     frames = list(itertools.islice(log.frames(), WATCH_SCANS))
 mcn = McnSlam(SlamConfig(n_particles=PARTICLES), load_model("unet"), McnConfig(samples=4, ranks=2, every=4,
               full_map_every=10), np.random.default_rng(SEED), generator=torch.Generator().manual_seed(SEED))
-summary = run_mcn(frames, mcn, rrd=rrd, progress=False,
-                  on_step=lambda f, r: last.__setitem__(slice(None), [r]) if r.completion is not None else None)
+summary = run_mcn(frames, mcn, rrd=rrd, progress=False)
 print(f"{summary.scans} scans, {summary.filter_updates} filter updates, {summary.completions} completions, "
       f"mean sample diversity {summary.mean_diversity:.3f}; {rrd} ({summary.rrd_bytes / 1e6:.1f} MB)")
-completion_figure(last[0].completion)"""),
+completion_figure(summary.last_completion)"""),
 code("""if VIEWER:
     from mcnkit.widgets import recording_player
 
