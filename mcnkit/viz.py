@@ -229,6 +229,36 @@ class _Tee:
             s.disconnect()
 
 
+def _columns(kind: str, values: list[Any]) -> Any:
+    """The ``send_columns`` columns of one queued entity: ``values`` holds one row per step."""
+    n = len(values)
+    if kind == "particles":  # (positions (N, 2), weights (N,)) per row; weights attached to every particle
+        counts = [len(xy) for xy, _ in values]
+        w_all = np.concatenate([w for _, w in values])
+        w_rel = np.concatenate([w / max(float(w.max()), 1e-12) for _, w in values])
+        return [*rr.Points2D.columns(positions=np.concatenate([xy for xy, _ in values]), radii=0.02 + 0.08 * w_rel,
+                                     colors=_weight_colors(w_rel)).partition(counts),
+                *rr.AnyValues.columns(weight=w_all,
+                                      particle_id=np.concatenate([np.arange(k) for k in counts])).partition(counts)]
+    if kind == "arrow":  # a pose (3,) per row
+        p = np.asarray(values)
+        heading = 0.4 * np.stack([np.cos(p[:, 2]), np.sin(p[:, 2])], axis=1)
+        return rr.Arrows2D.columns(origins=p[:, :2], vectors=heading).partition(np.ones(n, int))
+    if kind == "hits":  # (M, 2) points per row
+        return rr.Points2D.columns(positions=np.concatenate(values)).partition([len(h) for h in values])
+    if kind == "point":  # one (2,) point per row
+        return rr.Points2D.columns(positions=np.asarray(values))
+    if kind == "segmentation":
+        return rr.SegmentationImage.columns(buffer=np.stack(values).reshape(n, -1))
+    if kind == "depth":
+        return rr.DepthImage.columns(buffer=np.stack(values).reshape(n, -1))
+    if kind == "place":  # window (origin x, origin y, cell size) per row
+        v = np.asarray(values)
+        return rr.Transform3D.columns(translation=np.c_[v[:, 0], v[:, 1], np.zeros(n)],
+                                      scale=np.c_[v[:, 2], v[:, 2], np.ones(n)])
+    return rr.Scalars.columns(scalars=np.asarray(values, np.float64))
+
+
 class RerunLogger:
     """Writes one run to ``path`` (``.rrd``) and, with ``notebook_viewer=True``, streams it to ``.viewer``
     (a ``rerun.notebook.Viewer``: show it with ``logger.viewer.display()``)."""
@@ -250,16 +280,11 @@ class RerunLogger:
             rr.AnnotationInfo(id=0, label="known", color=(0, 0, 0, 0)),
             rr.AnnotationInfo(id=1, label="unknown", color=(255, 0, 255, 90))]), static=True)
         self.rec.log("/metrics/n_eff", rr.SeriesLines(names="N_eff", colors=[[30, 120, 220]], widths=2), static=True)
-        self.rec.log("/world/robot/pose", rr.Arrows2D.from_fields(colors=[[230, 40, 40]]), static=True)
-        self.rec.log("/world/scan/hits", rr.Points2D.from_fields(radii=[0.03], colors=[[255, 160, 0]]), static=True)
         self._odom_path: list[NDArray[np.float64]] = []
         self._updates = 0
         self._paths_logged_at = 0
         self.flush_updates = flush_updates
-        self._queued: dict[str, tuple[str, list[int], list[int], list[Any]]] = {}
-        self._completions_queued = 0
-        self._scans: list[tuple[int, int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-                                NDArray[np.float64]]] = []
+        self._queued: dict[str, tuple[str, list[int], list[int], list[Any]]] = {}  # entity -> kind, rows
         self._closed = False
 
     def seek(self, step: int) -> None:
@@ -290,9 +315,7 @@ class RerunLogger:
         """One MCN-SLAM step: the SLAM part (:meth:`log_slam_step`), the best map when the step carries it, and
         at completion steps every rank's m_t, samples, uncertainty and the scores.
 
-        The completion entities are queued and sent as columns every ``flush_updates`` completions and on
-        :meth:`close` (at once with a live notebook viewer): one ``send_columns`` per entity instead of one
-        ``log`` per image.
+        The completion entities are queued like the per-scan ones (see :meth:`log_slam_step`).
         """
         self.log_slam_step(frame, result.slam, trajectory_xy)
         if result.best_map is not None:
@@ -318,9 +341,6 @@ class RerunLogger:
         for key, value in scores.items():
             if key in _METRICS and np.isfinite(value):
                 self._queue(f"/metrics/{key}", "scalar", step, stamp, float(value))
-        self._completions_queued += 1
-        if self.viewer is not None or self._completions_queued >= self.flush_updates:
-            self._flush_queued()
 
     def _queue(self, entity: str, kind: str, step: int, stamp_ns: int, value: Any) -> None:
         if entity not in self._queued:
@@ -335,6 +355,10 @@ class RerunLogger:
                                                                    depth_range=[0.0, 255.0]), static=True)
             elif kind == "point":
                 self.rec.log(entity, rr.Points2D.from_fields(radii=[0.15], colors=[[230, 40, 40]]), static=True)
+            elif kind == "hits":
+                self.rec.log(entity, rr.Points2D.from_fields(radii=[0.03], colors=[[255, 160, 0]]), static=True)
+            elif kind == "arrow":
+                self.rec.log(entity, rr.Arrows2D.from_fields(colors=[[230, 40, 40]]), static=True)
             elif kind == "scalar":  # the series' name and colour (MCN scores only exist in MCN recordings)
                 color, label = _METRICS[entity.rsplit("/", 1)[-1]]
                 self.rec.log(entity, rr.SeriesLines(names=label, colors=[color], widths=2), static=True)
@@ -343,31 +367,16 @@ class RerunLogger:
         queue[2].append(stamp_ns)
         queue[3].append(value)
 
-    def _flush_queued(self) -> None:
-        """Sends every queued completion entity as one column chunk."""
+    def _flush(self) -> None:
+        """Sends every queued entity as one column chunk (``send_columns``)."""
         for entity, (kind, steps, stamps, values) in self._queued.items():
-            if not steps:
-                continue
-            index = [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
-                     rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
-            n = len(steps)
-            if kind == "segmentation":
-                columns: Any = rr.SegmentationImage.columns(buffer=np.stack(values).reshape(n, -1))
-            elif kind == "depth":
-                columns = rr.DepthImage.columns(buffer=np.stack(values).reshape(n, -1))
-            elif kind == "place":
-                v = np.asarray(values)
-                columns = rr.Transform3D.columns(translation=np.c_[v[:, 0], v[:, 1], np.zeros(n)],
-                                                 scale=np.c_[v[:, 2], v[:, 2], np.ones(n)])
-            elif kind == "point":
-                columns = rr.Points2D.columns(positions=np.asarray(values))
-            else:
-                columns = rr.Scalars.columns(scalars=np.asarray(values, np.float64))
-            self.rec.send_columns(entity, index, columns)
-            steps.clear()
-            stamps.clear()
-            values.clear()
-        self._completions_queued = 0
+            if steps:
+                index = [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
+                         rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
+                self.rec.send_columns(entity, index, _columns(kind, values))
+                steps.clear()
+                stamps.clear()
+                values.clear()
 
     def log_ground_truth(self, ternary: TernaryMap) -> None:
         """The ground-truth map (static: the same at every step)."""
@@ -376,9 +385,9 @@ class RerunLogger:
     def log_slam_step(self, frame: Frame, step: SlamStep, trajectory_xy: NDArray[np.float64] | None = None) -> None:
         """Particles, best pose, scan hits, odometry path and N_eff of one filter step.
 
-        The per-scan entities (particles, pose, hits) are buffered and sent as columns (``send_columns``) every
-        ``flush_updates`` filter updates and on :meth:`close`, which costs a fraction of one ``log`` call per scan;
-        with a live notebook viewer every scan is sent at once.
+        Per-scan and per-completion entities are queued and sent as columns (``send_columns``) every
+        ``flush_updates`` filter updates and on :meth:`close`, which costs a fraction of one ``log`` call per row;
+        with a live notebook viewer every step is sent at once.
         """
         w = np.asarray(step.weights, dtype=np.float64)
         pose = np.asarray(step.best_pose, dtype=np.float64)
@@ -389,12 +398,14 @@ class RerunLogger:
         laser = transform_points(pose, np.array([[scan.spec.base_to_laser.x_m, scan.spec.base_to_laser.y_m]]))[0]
         yaw = pose[2] + scan.spec.base_to_laser.yaw_rad
         hits = np.stack([laser[0] + r * np.cos(yaw + angles), laser[1] + r * np.sin(yaw + angles)], axis=1)
-        self._scans.append((step.index, step.stamp_ns, step.poses[:, :2].copy(), w, pose, hits))
+        self._queue("/world/particles", "particles", step.index, step.stamp_ns, (step.poses[:, :2].copy(), w))
+        self._queue("/world/robot/pose", "arrow", step.index, step.stamp_ns, pose)
+        self._queue("/world/scan/hits", "hits", step.index, step.stamp_ns, hits)
         self._odom_path.append(frame.odom.as_array()[:2])
         if step.updated:  # row-by-row logs below (and log_mcn_step's) happen at filter updates only
             self._updates += 1
         if self.viewer is not None or (step.updated and self._updates % self.flush_updates == 0):
-            self._flush_scans()
+            self._flush()
         if step.updated:
             self.set_time(step.index, step.stamp_ns)
             # whole paths, re-sent every max(1, updates/50) updates: a growing path without quadratic file size
@@ -410,34 +421,11 @@ class RerunLogger:
             self.rec.log("/log", rr.TextLog(f"scan {step.index}: {what} (N_eff {step.neff:.1f})",
                                             level=rr.TextLogLevel.INFO))
 
-    def _flush_scans(self) -> None:
-        """Sends the buffered per-scan entities as one column chunk each."""
-        if not self._scans:
-            return
-        steps, stamps, particles, weights, poses, hits = zip(*self._scans, strict=True)
-        self._scans = []
-        index = [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
-                 rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
-        n = [len(p) for p in particles]
-        w_all = np.concatenate(weights)
-        w_rel = np.concatenate([w / max(float(w.max()), 1e-12) for w in weights])
-        self.rec.send_columns("/world/particles", index, [  # weights attached to every particle
-            *rr.Points2D.columns(positions=np.concatenate(particles), radii=0.02 + 0.08 * w_rel,
-                                 colors=_weight_colors(w_rel)).partition(n),
-            *rr.AnyValues.columns(weight=w_all, particle_id=np.concatenate([np.arange(k) for k in n])).partition(n)])
-        p = np.asarray(poses)
-        heading = 0.4 * np.stack([np.cos(p[:, 2]), np.sin(p[:, 2])], axis=1)
-        self.rec.send_columns("/world/robot/pose", index,
-                              rr.Arrows2D.columns(origins=p[:, :2], vectors=heading).partition(np.ones(len(p), int)))
-        self.rec.send_columns("/world/scan/hits", index,
-                              rr.Points2D.columns(positions=np.concatenate(hits)).partition([len(h) for h in hits]))
-
     def close(self) -> None:
         """Sends what is buffered, flushes and finalises the file (idempotent)."""
         if not self._closed:
             self._closed = True
-            self._flush_scans()
-            self._flush_queued()
+            self._flush()
             self.rec.flush()
             self.rec.disconnect()
 
