@@ -1,13 +1,8 @@
 """Generates notebooks/01_quickstart.ipynb (outputs empty): .venv/bin/python notebooks/src/make01.py"""
 
-from pathlib import Path
+from nbgen import code, md, save
 
-import nbformat as nbf
-
-HERE = Path(__file__).resolve().parents[1]  # notebooks/
-nb = nbf.v4.new_notebook()
-md, code = nbf.v4.new_markdown_cell, nbf.v4.new_code_cell
-nb.cells = [
+cells = [
 md("""# 01 · Quickstart: the demo in the embedded viewer
 
 This runs what `make demo` runs: a robot with a lidar explores a procedurally generated apartment (no dataset
@@ -70,5 +65,4 @@ make demo                          # the same run
 mcnkit info recordings/demo/apartment.mcap
 ```"""),
 ]
-nb.metadata["kernelspec"] = {"display_name": "Python 3", "language": "python", "name": "python3"}
-nbf.write(nb, HERE / "01_quickstart.ipynb")
+save(cells, "01_quickstart.ipynb")

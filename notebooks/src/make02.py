@@ -1,12 +1,7 @@
 """Generates notebooks/02_robot_logs.ipynb (outputs empty): .venv/bin/python notebooks/src/make02.py"""
 
-from pathlib import Path
+from nbgen import code, md, save
 
-import nbformat as nbf
-
-HERE = Path(__file__).resolve().parents[1]  # notebooks/
-nb = nbf.v4.new_notebook()
-md, code = nbf.v4.new_markdown_cell, nbf.v4.new_code_cell
 cells = [
 md("""# 02 · Robot logs: ROS1 bags, ROS2 bags, MCAP and CARMEN
 
@@ -104,6 +99,4 @@ mcnkit convert ../shared/data/reallab/mit-csail/mit-csail.clf mit.bag
 mcnkit info mit.bag
 ```"""),
 ]
-nb.cells = cells
-nb.metadata["kernelspec"] = {"display_name": "Python 3", "language": "python", "name": "python3"}
-nbf.write(nb, HERE / "02_robot_logs.ipynb")
+save(cells, "02_robot_logs.ipynb")

@@ -1,13 +1,8 @@
 """Generates notebooks/03_fastslam_step_by_step.ipynb (outputs empty): .venv/bin/python notebooks/src/make03.py"""
 
-from pathlib import Path
+from nbgen import code, md, save
 
-import nbformat as nbf
-
-HERE = Path(__file__).resolve().parents[1]  # notebooks/
-nb = nbf.v4.new_notebook()
-md, code = nbf.v4.new_markdown_cell, nbf.v4.new_code_cell
-nb.cells = [
+cells = [
 md("""# 03 · FastSLAM step by step
 
 A robot explores an apartment it has never seen. Its wheel odometry drifts; its lidar sees walls. Grid
@@ -72,5 +67,4 @@ print(f"ATE RMSE: SLAM {slam_ate.rmse_m:.3f} m, odometry alone {odom_ate.rmse_m:
 stepper.logger.close()
 print(f"recording: {Path(RRD).resolve()}  (open it with: rerun {RRD})")"""),
 ]
-nb.metadata["kernelspec"] = {"display_name": "Python 3", "language": "python", "name": "python3"}
-nbf.write(nb, HERE / "03_fastslam_step_by_step.ipynb")
+save(cells, "03_fastslam_step_by_step.ipynb")

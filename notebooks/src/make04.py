@@ -1,13 +1,8 @@
 """Generates notebooks/04_training_a_completion_network.ipynb (outputs empty): .venv/bin/python notebooks/src/make04.py"""
 
-from pathlib import Path
+from nbgen import code, md, save
 
-import nbformat as nbf
-
-HERE = Path(__file__).resolve().parents[1]  # notebooks/
-nb = nbf.v4.new_notebook()
-md, code = nbf.v4.new_markdown_cell, nbf.v4.new_code_cell
-nb.cells = [
+cells = [
 md("""# 04 · Training a map completion network
 
 A robot that has seen one corner of a house can already guess a lot about the rest: rooms are rectangles,
@@ -261,7 +256,4 @@ Try it yourself: change `N_TRAIN`, `EPOCHS` or `NET` in the parameters cell and 
 shipped network from a terminal (its card has the exact command):"""),
 code("""print(shipped_info.get("reproduce", "see mcnkit/weights/unet-houseexpo.md"))"""),
 ]
-for i, cell in enumerate(nb.cells):
-    cell.id = f"nb04-{i:02d}"  # stable ids: regenerating gives the same file
-nb.metadata["kernelspec"] = {"display_name": "Python 3", "language": "python", "name": "python3"}
-nbf.write(nb, HERE / "04_training_a_completion_network.ipynb")
+save(cells, "04_training_a_completion_network.ipynb")

@@ -1,13 +1,8 @@
 """Generates notebooks/05_experiment_1.ipynb (outputs empty): .venv/bin/python notebooks/src/make05.py"""
 
-from pathlib import Path
+from nbgen import code, md, save
 
-import nbformat as nbf
-
-HERE = Path(__file__).resolve().parents[1]  # notebooks/
-nb = nbf.v4.new_notebook()
-md, code = nbf.v4.new_markdown_cell, nbf.v4.new_code_cell
-nb.cells = [
+cells = [
 md("""# 05 · Experiment 1: map completion from one scan
 
 The paper's first experiment asks how well a completion network fills in a house from what a robot sees in
@@ -204,7 +199,4 @@ mcnkit experiment exp1 --out results/exp1 --n-test 100
 mcnkit experiment exp1 --out results/exp1-1000 --n-test 1000
 ```"""),
 ]
-for i, cell in enumerate(nb.cells):
-    cell.id = f"nb05-{i:02d}"  # stable ids: regenerating gives the same file
-nb.metadata["kernelspec"] = {"display_name": "Python 3", "language": "python", "name": "python3"}
-nbf.write(nb, HERE / "05_experiment_1.ipynb")
+save(cells, "05_experiment_1.ipynb")

@@ -1,13 +1,8 @@
 """Generates notebooks/06_experiment_2.ipynb (outputs empty): .venv/bin/python notebooks/src/make06.py"""
 
-from pathlib import Path
+from nbgen import code, md, save
 
-import nbformat as nbf
-
-HERE = Path(__file__).resolve().parents[1]  # notebooks/
-nb = nbf.v4.new_notebook()
-md, code = nbf.v4.new_markdown_cell, nbf.v4.new_code_cell
-nb.cells = [
+cells = [
 md("""# 06 · Experiment 2: MCN-SLAM in simulation
 
 Experiment 1 (notebook 05) completed maps made by one Pseudo-SLAM scan. The paper's second experiment puts the
@@ -231,7 +226,4 @@ mcnkit experiment exp2 --out results/exp2 --n-maps 10
 mcnkit experiment exp2 --out results/exp2-50 --n-maps 50
 ```"""),
 ]
-for i, cell in enumerate(nb.cells):
-    cell.id = f"nb06-{i:02d}"  # stable ids: regenerating gives the same file
-nb.metadata["kernelspec"] = {"display_name": "Python 3", "language": "python", "name": "python3"}
-nbf.write(nb, HERE / "06_experiment_2.ipynb")
+save(cells, "06_experiment_2.ipynb")

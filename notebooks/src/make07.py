@@ -1,13 +1,8 @@
 """Generates notebooks/07_real_lab_experiment.ipynb (outputs empty): .venv/bin/python notebooks/src/make07.py"""
 
-from pathlib import Path
+from nbgen import code, md, save
 
-import nbformat as nbf
-
-HERE = Path(__file__).resolve().parents[1]  # notebooks/
-nb = nbf.v4.new_notebook()
-md, code = nbf.v4.new_markdown_cell, nbf.v4.new_code_cell
-nb.cells = [
+cells = [
 md("""# 07 · The real-lab experiment: MIT CSAIL and the Intel Research Lab
 
 The paper's last experiment completes the map of a real laboratory room with the networks trained on HouseExpo.
@@ -169,7 +164,4 @@ code("""if VIEWER:
 else:
     print(f"no front end: open {rrd} with `rerun {rrd}`")"""),
 ]
-for i, cell in enumerate(nb.cells):
-    cell.id = f"nb07-{i:02d}"  # stable ids: regenerating gives the same file
-nb.metadata["kernelspec"] = {"display_name": "Python 3", "language": "python", "name": "python3"}
-nbf.write(nb, HERE / "07_real_lab_experiment.ipynb")
+save(cells, "07_real_lab_experiment.ipynb")
