@@ -14,21 +14,21 @@ slider (or the viewer's own timeline) to watch the particles, the map, the traje
 Everything runs offline: the viewer's code is served by this kernel (`RERUN_NOTEBOOK_ASSET=serve-local`)."""),
 code("""# Parameters: CI runs this notebook small and without a viewer (MCNKIT_CI=1).
 import os
+from pathlib import Path
 
 CI = os.environ.get("MCNKIT_CI") == "1"
 os.environ.setdefault("RERUN_NOTEBOOK_ASSET", "serve-local")  # offline viewer
 APARTMENT = 3
 DURATION_S = 25.0 if CI else 120.0   # simulated seconds
 PARTICLES = 10 if CI else 30
-VIEWER = not CI                      # the embedded viewer needs a browser front end"""),
-code("""from pathlib import Path
-
-import matplotlib.pyplot as plt
+VIEWER = not CI                      # the embedded viewer needs a browser front end
+OUT = Path("out") / "01"             # this notebook's outputs (git-ignored); `make demo` writes recordings/"""),
+code("""import matplotlib.pyplot as plt
 from IPython.display import display
 
 from mcnkit.demo import run_demo
 
-result = run_demo(Path("../recordings/demo"), Path("../recordings/demo.rrd"), apartment=APARTMENT,
+result = run_demo(OUT / "demo", OUT / "demo.rrd", apartment=APARTMENT,
                   particles=PARTICLES, duration_s=DURATION_S, progress=False)"""),
 md("""## Scrub the recording
 The left view is the SLAM state: the best particle's map (grey = unknown, magenta tint = cells not yet seen),
