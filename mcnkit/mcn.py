@@ -55,7 +55,8 @@ F32 = NDArray[np.float32]
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
-MODELS = {"unet": "unet-houseexpo", "pix2pix": "pix2pix-houseexpo", "unet-procedural": "unet-procedural"}
+MODELS = {"unet": "unet-houseexpo", "unet-explore": "unet-houseexpo-explore", "pix2pix": "pix2pix-houseexpo",
+          "unet-procedural": "unet-procedural"}
 """Short names of the shipped weights (``mcnkit/weights/<name>.safetensors``)."""
 
 

@@ -66,7 +66,16 @@ def _augment(tc: dict[str, Any]) -> str:
     return "flips (left-right, up-down; no transposes)"
 
 
-def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path | None = None) -> Path:
+def _pair_build(manifest: dict[str, Any]) -> str:
+    secs = manifest.get("build_seconds")
+    if not secs:
+        return ""
+    return (f"\n- Pairs: built once and cached in {float(secs):.0f} s ({float(secs) / 60:.1f} min), before the run and "
+            "not in its wall time.")
+
+
+def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path | None = None,
+         conditions: str = "2 CPU cores") -> Path:
     """Copies ``RUN_DIR/best`` to ``WEIGHTS/NAME`` and writes ``WEIGHTS/NAME.md``; returns the card path."""
     torch.set_num_threads(2)
     src = Path(run_dir) / "best"
@@ -112,9 +121,9 @@ def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path |
   lr {tc["lr"]} (Adam beta1 {tc.get("beta1", 0.5)}), unknown-cell weight {tc["unknown_weight"]}, free-target weight
   {tc.get("free_weight", 1.0)}, EMA of the weights: {tc.get("ema_decay", 0.0) or "off"} (the EMA is what is validated and shipped){", recon weight " + str(tc["recon_weight"]) + ", GAN weight " + str(tc["gan_weight"]) if ck.arch == "pix2pix" else ""},
   time budget {tc["max_minutes"]} min, initialised from: {tc["init_from"] or "scratch"}.
-- Wall time (data loading + training + per-epoch validation, 2 CPU cores shared with another job): best checkpoint
+- Wall time (data loading + training + per-epoch validation, {conditions}): best checkpoint
   reached after {info["wall_time_s"]:.0f} s ({info["wall_time_s"] / 60:.1f} min), whole run {total_s:.0f} s ({total_s / 60:.1f} min){_init_time(tc, float(info["wall_time_s"]))}.
-- Sample diversity (K = 8, dropout on, 100 test maps): {div:.4f} of the cells differ between two samples.
+- Sample diversity (K = 8, dropout on, 100 test maps): {div:.4f} of the cells differ between two samples.{_pair_build(splits.manifest)}
 
 ## Reproduce
 
@@ -151,8 +160,9 @@ def main() -> int:
     ap.add_argument("name")
     ap.add_argument("--command", required=True, help="the command that reproduces the run")
     ap.add_argument("--weights-dir", default=None)
+    ap.add_argument("--conditions", default="2 CPU cores", help="the machine the run had, for the card's wall time")
     args = ap.parse_args()
-    print(ship(args.run_dir, args.name, args.command, args.weights_dir))
+    print(ship(args.run_dir, args.name, args.command, args.weights_dir, args.conditions))
     return 0
 
 

@@ -72,7 +72,9 @@ def add_train_parser(subparsers: argparse._SubParsersAction) -> None:
     """Adds ``train``."""
     p = subparsers.add_parser("train", help="train a map completion network (U-net or pix2pix)")
     p.add_argument("--model", choices=["unet", "pix2pix"], default="unet")
-    p.add_argument("--domain", choices=["houseexpo", "procedural"], default="houseexpo")
+    p.add_argument("--domain", choices=["houseexpo", "houseexpo-explore", "procedural"], default="houseexpo",
+                   help="houseexpo: the paper's pairs (one 180°, 2 m scan); houseexpo-explore: m_t after 1-12 scans "
+                        "of a 360°, 8 m lidar (what MCN-SLAM completes during a run); procedural: HOME'S-style masks")
     p.add_argument("--out", required=True, help="run directory (best.* and last.* checkpoints)")
     p.add_argument("--n-train", type=int, default=5000)
     p.add_argument("--n-val", type=int, default=200)

@@ -1,7 +1,8 @@
 """Pairs for training and evaluation, as tensors: loading a domain, encoding, dihedral augmentation.
 
 Domains: ``houseexpo`` (the cached Pseudo-SLAM pairs of :mod:`mcnkit.datasets.pairs`, default cache
-``<data>/cache/houseexpo-<n_train>``) and ``procedural`` (procedural apartments with HOME'S masking, built in
+``<data>/cache/houseexpo-<n_train>``), ``houseexpo-explore`` (the same plans, m_t after 1–12 scans of a 360° 8 m
+lidar from poses a robot could have reached: the maps MCN-SLAM completes during a run) and ``procedural`` (procedural apartments with HOME'S masking, built in
 memory).  Augmentation draws one of the 8 symmetries of the square per pair (flip left-right, flip up-down,
 transpose; or flips only), the same for m_t and m_T, from an injected :class:`torch.Generator`.
 """
@@ -9,19 +10,22 @@ transpose; or flips only), the same for m_t and m_T, from an injected :class:`to
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from mcnkit.datasets import PairConfig, PairSet, PairSplits, load_or_build_houseexpo_pairs, procedural_pairs
+from mcnkit.datasets import PairConfig, PseudoSlamConfig, PairSet, PairSplits, load_or_build_houseexpo_pairs, procedural_pairs
 from mcnkit.datasets.houseexpo import default_data_dir, find_houseexpo
 from mcnkit.grid import ternary_to_network
 
 __all__ = ["DOMAINS", "augment_dihedral", "encode", "load_domain_pairs"]
 
-DOMAINS = ("houseexpo", "procedural")
+DOMAINS = ("houseexpo", "houseexpo-explore", "procedural")
+EXPLORE_SCANS = 12
+"""``houseexpo-explore``: m_t = 1..12 scans of a 360°, 8 m lidar (Experiment 2's robot) instead of one 180°, 2 m scan."""
 
 
 def _shared_houseexpo() -> Path | None:
@@ -44,13 +48,15 @@ def load_domain_pairs(
     """Train/val/test pairs of ``domain``; HouseExpo from ``houseexpo`` (default: installed, then ../shared/data)."""
     if domain == "procedural":
         return procedural_pairs(n_train, n_val, n_test, seed=seed)
-    if domain != "houseexpo":
+    if domain not in ("houseexpo", "houseexpo-explore"):
         raise ValueError(f"unknown domain {domain!r} (choose from {', '.join(DOMAINS)})")
     source = Path(houseexpo) if houseexpo else (find_houseexpo() or _shared_houseexpo())
     if source is None or not source.exists():
         raise FileNotFoundError(2, "HouseExpo not found (install it or pass --houseexpo)", str(source or "houseexpo"))
-    cache = Path(cache_dir) if cache_dir else default_data_dir() / "cache" / f"houseexpo-{n_train}"
+    cache = Path(cache_dir) if cache_dir else default_data_dir() / "cache" / f"{domain}-{n_train}"
     cfg = PairConfig(n_train=n_train, n_val=n_val, n_test=n_test, seed=seed)
+    if domain == "houseexpo-explore":
+        cfg = replace(cfg, pseudoslam=PseudoSlamConfig(range_m=8.0, fov_deg=360.0), max_scans=EXPLORE_SCANS)
     splits, _ = load_or_build_houseexpo_pairs(source, cache, cfg, progress=progress)
     return splits
 

@@ -1,6 +1,6 @@
 """Training pairs (m_t, m_T) as 64×64 ternary maps, built once and cached.
 
-HouseExpo pairs (the paper's protocol): m_T = the plan rasterized at the Pseudo-SLAM resolution (free inside,
+HouseExpo pairs (the paper's protocol; ``max_scans > 1``: several scans, see :class:`PairConfig`): m_T = the plan rasterized at the Pseudo-SLAM resolution (free inside,
 walls and exterior occupied), m_t = HouseExpo's Pseudo-SLAM map after its first iteration (one scan from a
 random free start pose).  Both are padded to a square (m_T with occupied, m_t with unknown, centred) and
 resized with :func:`mcnkit.grid.resize_ternary` (occupied > free > unknown).  Split: ``n_train`` + ``n_val`` plans
@@ -39,7 +39,7 @@ from mcnkit.datasets.floorplans import (
     rasterize_apartment,
 )
 from mcnkit.datasets.houseexpo import FloorPlan, SkipLog, iter_plans, rasterize_plan, read_split, sha256_of
-from mcnkit.datasets.pseudoslam import PseudoSlamConfig, first_iteration, free_to_ternary
+from mcnkit.datasets.pseudoslam import PseudoSlamConfig, exploration, first_iteration, free_to_ternary
 from mcnkit.grid import pad_to_square, resize_ternary
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
@@ -77,6 +77,9 @@ class PairConfig:
     size: int = 64
     pseudoslam: PseudoSlamConfig = field(default_factory=PseudoSlamConfig)
     crop_to_plan: bool = True
+    max_scans: int = 1
+    """m_t = the union of ``n`` scans, ``n`` uniform in ``1..max_scans`` (:func:`~mcnkit.datasets.pseudoslam.exploration`);
+    1 = the paper's first iteration."""
 
 
 @dataclass(frozen=True)
@@ -140,10 +143,14 @@ def _pair_rng(seed: int, key: str) -> np.random.Generator:
 
 
 def houseexpo_pair(plan: FloorPlan, config: PairConfig) -> tuple[F32, F32]:
-    """(m_t, m_T) at ``config.size``² for one plan: rasterize, one Pseudo-SLAM scan, pad square, resize."""
+    """(m_t, m_T) at ``config.size``² for one plan: rasterize, Pseudo-SLAM scan(s), pad square, resize."""
     ps = config.pseudoslam
     free, _ = rasterize_plan(plan, 1.0 / ps.px_per_m, ps.border_px)
-    obs = first_iteration(free, ps, _pair_rng(config.seed, plan.id))
+    rng = _pair_rng(config.seed, plan.id)
+    if config.max_scans > 1:
+        obs = exploration(free, ps, int(rng.integers(1, config.max_scans + 1)), rng)
+    else:
+        obs = first_iteration(free, ps, rng)
     observed, truth = obs.observed, obs.ground_truth
     b = ps.border_px
     if config.crop_to_plan and b > 0 and min(free.shape) > 2 * b:
@@ -214,13 +221,16 @@ def build_houseexpo_pairs(
 
 
 def _key(source: Path, train_list: Path, test_list: Path, cfg: PairConfig) -> dict[str, Any]:
+    config = dataclasses.asdict(cfg)
+    if cfg.max_scans == 1:
+        del config["max_scans"]  # caches of the paper's pairs built before the option existed stay valid
     return {
         "version": CACHE_VERSION,
         "source_sha256": sha256_of(source),
         "train_list_sha256": sha256_of(train_list),
         "test_list_sha256": sha256_of(test_list),
         "seed": cfg.seed,
-        "config": dataclasses.asdict(cfg),
+        "config": config,
     }
 
 

@@ -9,6 +9,10 @@ obstacle pixel; every other pixel stays unknown.  The start pose is drawn unifor
 uniform random heading.  Default config = HouseExpo's default (range 2 m, fov 180°, 1° steps, 16 px/m, robot
 radius 0.2 m), which reproduces the paper's partial-map row (PAPER-NOTES.md).
 
+:func:`exploration` goes further than the paper: the union of several scans, each taken from a safe pixel the
+earlier scans saw free, i.e. the map of a robot part-way through exploring the house (used to train the networks
+MCN-SLAM runs at every filter update, whose m_t grows scan by scan).
+
 Example:
     >>> free = np.zeros((20, 20), bool); free[2:18, 2:18] = True
     >>> obs = pseudo_slam_scan(free, (10.0, 10.0, 0.0), PseudoSlamConfig(range_m=0.5, px_per_m=16))
@@ -29,6 +33,7 @@ from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 __all__ = [
     "PseudoSlamConfig",
     "PseudoSlamObservation",
+    "exploration",
     "first_iteration",
     "free_to_ternary",
     "pseudo_slam_scan",
@@ -161,3 +166,29 @@ def first_iteration(free: BoolArray, config: PseudoSlamConfig, rng: np.random.Ge
     """The paper's m_t and m_T on the raster: one scan from a random free start pose, and the ground truth."""
     pose = random_start_pose(free, config, rng)
     return PseudoSlamObservation(free_to_ternary(free), pseudo_slam_scan(free, pose, config), pose)
+
+
+def exploration(
+    free: BoolArray, config: PseudoSlamConfig, n_scans: int, rng: np.random.Generator
+) -> PseudoSlamObservation:
+    """m_t after ``n_scans`` scans: the first from :func:`random_start_pose`, each next one from a pixel drawn
+    uniformly among the safe pixels (robot disc clear of obstacles) that the scans so far observed free — where a
+    robot that drives only through known free space can be — with a uniform heading.  ``pose_px`` is the first
+    pose.  ``n_scans = 1`` is :func:`first_iteration` (same draws).
+    """
+    if n_scans < 1:
+        raise ValueError(f"n_scans must be at least 1, got {n_scans}")
+    first = random_start_pose(free, config, rng)
+    observed = pseudo_slam_scan(free, first, config)
+    if n_scans > 1:
+        safe = ndimage.distance_transform_edt(free) > config.robot_radius_px
+        for _ in range(n_scans - 1):
+            cand = np.flatnonzero(safe & (observed == FREE))
+            if cand.size == 0:
+                break
+            k = int(cand[rng.integers(cand.size)])
+            pose = (float(k // free.shape[1]), float(k % free.shape[1]), float(rng.random() * 2.0 * np.pi))
+            scan = pseudo_slam_scan(free, pose, config)
+            seen = scan != UNKNOWN
+            observed[seen] = scan[seen]
+    return PseudoSlamObservation(free_to_ternary(free), observed, first)

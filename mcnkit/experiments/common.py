@@ -51,7 +51,7 @@ F64 = NDArray[np.float64]
 METRICS = ("accuracy", "precision", "recall", "f_measure", "miou_unknown")
 """Per-map scores of :func:`per_map_scores` (the mIoU is on the cells unknown in m_t)."""
 
-_LABELS = {"pix2pix": "(A) pix2pix", "unet": "(B) U-net"}
+_LABELS = {"pix2pix": "(A) pix2pix", "unet": "(B) U-net", "unet-explore": "(B') U-net, exploration-trained"}
 
 
 def model_label(name: str) -> str:

@@ -18,7 +18,9 @@ Protocol (written to ``exp2.md`` too):
    window, m_T's known extent padded square on ``size``² cells (:func:`mcnkit.mcn.map_window`; thin walls survive
    the pooling).  m_T's unknown cells there (outside the outer walls) count as occupied, the convention of the
    training maps and of Exp 1 (the F-measure, free space positive, does not depend on it).
-5. **Rows**: (A) pix2pix and (B) U-net (the shipped weights, :func:`mcnkit.mcn.load_model`): the ternary map of the
+5. **Rows**: (A) pix2pix and (B) U-net (the shipped weights, :func:`mcnkit.mcn.load_model`), and (B') the U-net
+   trained on exploration maps (``unet-explore``: m_t after 1–12 scans of this robot's 360°, 8 m lidar, not the
+   paper's single 180°, 2 m scan; :mod:`mcnkit.completion.data`): the ternary map of the
    mean output of K samples (dropout on; what :class:`mcnkit.mcn.McnSlam` returns as ``mean``), the mean score of
    the K samples, and the deterministic completion (dropout off); (C) SLAM alone (m_t as is); (D) retrieval of the
    HouseExpo training map that best agrees with m_t's observed cells; and the sanity rows "unknown → all free" and
@@ -77,6 +79,9 @@ PER_MAP_COLUMNS = ["map", "iteration", "update", "n_updates", "method", "variant
                    "f_measure", "miou_unknown", "miou_unknown_inside", "exterior_predicted_free", "unknown_share"]
 CURVE_COLUMNS = ["fraction", "method", "n_maps", "f_measure", "f_ci95", "miou_unknown", "miou_ci95", "unknown_share"]
 ITERATIONS = ("1", "T-5")
+UNET_ROWS = ("(B) U-net", "(B') U-net, exploration-trained")
+"""U-net rows the targets are checked on: the paper's (trained on first-iteration maps) and the one trained on the
+maps of a robot part-way through exploring (``unet-explore``)."""
 PAPER = """| (A) pix2pix | 1 | 0.7864 | 0.4486 | 0.7072 | 0.4858 |
 | (B) U-net | 1 | 0.8028 | 0.4686 | 0.7561 | 0.5275 |
 | (C) Gmapping | 1 | 0.8314 | 0.6836 | 0.0994 | 0.1671 |
@@ -99,7 +104,7 @@ class Exp2Config:
     seed: int = 0
     threads: int = 1
     particles: int = 30
-    models: tuple[str, ...] = ("pix2pix", "unet")
+    models: tuple[str, ...] = ("pix2pix", "unet", "unet-explore")
     """Completion networks: short names of :func:`mcnkit.mcn.load_model` or checkpoint paths."""
     late: int = 5
     """The late iteration is T − ``late``."""
@@ -398,23 +403,27 @@ def _targets(rows: list[dict[str, Any]], k: int) -> list[tuple[str, bool, str]]:
                      and r["positive_class"] == "free"), None)
 
     out: list[tuple[str, bool, str]] = []
-    u1, ul = get("1", "(B) U-net", f"mean of {k}"), get("T-5", "(B) U-net", f"mean of {k}")
     c1 = get("1", "(C) SLAM alone", "-")
-    if u1 is None or ul is None or c1 is None:
-        return out
-    out.append(("U-net F at iteration 1 ≥ 0.53 (paper 0.5275)", u1["f_measure"] >= 0.53, f"{u1['f_measure']:.4f}"))
-    ratio = u1["f_measure"] / c1["f_measure"] if c1["f_measure"] > 0 else float("inf")
-    out.append(("U-net F at iteration 1 ≥ 1.3 × SLAM alone", ratio >= 1.3,
-                f"{u1['f_measure']:.4f} / {c1['f_measure']:.4f} = {ratio:.2f}×"))
-    out.append(("U-net F at T−5 ≥ 0.64 (paper 0.6429)", ul["f_measure"] >= 0.64, f"{ul['f_measure']:.4f}"))
-    for it, u in (("1", u1), ("T-5", ul)):
-        fills = [f for f in (get(it, m, "-") for m in ("unknown → all free", "unknown → all occupied")) if f]
-        best_in = max((f["miou_unknown_inside"] for f in fills), default=float("nan"))
-        out.append((f"U-net mIoU on the unknown cells m_T knows (as in Exp 3) above both trivial fills, iteration {it}",
-                    bool(u["miou_unknown_inside"] > best_in), f"{u['miou_unknown_inside']:.4f} vs {best_in:.4f}"))
-        best = max((f["miou_unknown"] for f in fills), default=float("nan"))
-        out.append((f"same, with the cells m_T never saw counted occupied, iteration {it}",
-                    bool(u["miou_unknown"] > best), f"{u['miou_unknown']:.4f} vs {best:.4f}"))
+    for method in UNET_ROWS:
+        u1, ul = get("1", method, f"mean of {k}"), get("T-5", method, f"mean of {k}")
+        if u1 is None or ul is None or c1 is None:
+            continue
+        name = method.split(") ", 1)[-1]
+        out.append((f"{name} F at iteration 1 ≥ 0.53 (paper 0.5275)", u1["f_measure"] >= 0.53,
+                    f"{u1['f_measure']:.4f}"))
+        ratio = u1["f_measure"] / c1["f_measure"] if c1["f_measure"] > 0 else float("inf")
+        out.append((f"{name} F at iteration 1 ≥ 1.3 × SLAM alone", ratio >= 1.3,
+                    f"{u1['f_measure']:.4f} / {c1['f_measure']:.4f} = {ratio:.2f}×"))
+        out.append((f"{name} F at T−5 ≥ 0.64 (paper 0.6429)", ul["f_measure"] >= 0.64, f"{ul['f_measure']:.4f}"))
+        for it, u in (("1", u1), ("T-5", ul)):
+            fills = [f for f in (get(it, m, "-") for m in ("unknown → all free", "unknown → all occupied")) if f]
+            best_in = max((f["miou_unknown_inside"] for f in fills), default=float("nan"))
+            out.append((f"{name} mIoU on the unknown cells m_T knows (as in Exp 3) above both trivial fills, "
+                        f"iteration {it}", bool(u["miou_unknown_inside"] > best_in),
+                        f"{u['miou_unknown_inside']:.4f} vs {best_in:.4f}"))
+            best = max((f["miou_unknown"] for f in fills), default=float("nan"))
+            out.append((f"same, with the cells m_T never saw counted occupied, iteration {it}",
+                        bool(u["miou_unknown"] > best), f"{u['miou_unknown']:.4f} vs {best:.4f}"))
     return out
 
 
@@ -441,13 +450,15 @@ def _diagnosis(rows: list[dict[str, Any]], houses: list[HouseRun], cfg: Exp2Conf
                              f"{r['miou_unknown_inside']:.4f} | {r['exterior_predicted_free']:.3f} |")
         sel = {r["method"]: r for r in rows if r["iteration"] == it and r["positive_class"] == "free"
                and r["variant"] in ("-", f"mean of {k}")}
-        u = sel.get("(B) U-net")
         fills = [sel[m] for m in ("unknown → all free", "unknown → all occupied") if m in sel]
-        if u is not None and fills:
+        for method in UNET_ROWS:
+            u = sel.get(method)
+            if u is None or not fills:
+                continue
             best_in = max(f["miou_unknown_inside"] for f in fills)
-            summary.append(f"- At iteration {it}, {share:.0%} of the cells to complete lie outside the house; the "
-                           f"U-net fills {u['exterior_predicted_free']:.0%} of them with free space. Inside the house "
-                           f"its mIoU is {u['miou_unknown_inside']:.3f} against {best_in:.3f} for the better "
+            summary.append(f"- At iteration {it}, {share:.0%} of the cells to complete lie outside the house; "
+                           f"{method} fills {u['exterior_predicted_free']:.0%} of them with free space. Inside the "
+                           f"house its mIoU is {u['miou_unknown_inside']:.3f} against {best_in:.3f} for the better "
                            "trivial fill there.")
     return [*lines, "", *summary, ""] if summary else [*lines, ""]
 
@@ -596,7 +607,8 @@ def add_exp2_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     parser.add_argument("--threads", type=int, default=d.threads, help="torch CPU threads")
     parser.add_argument("--particles", type=int, default=d.particles, help="FastSLAM particles")
     parser.add_argument("--models", nargs="+", default=list(d.models),
-                        help="completion networks: unet, pix2pix or checkpoint paths")
+                        help="completion networks: unet, pix2pix, unet-explore (trained on exploration maps) or "
+                             "checkpoint paths")
     parser.add_argument("--range", type=float, default=d.lidar_range_m, dest="lidar_range_m",
                         help="simulated lidar range [m]")
     parser.add_argument("--n-train", type=int, default=d.n_train, help="HouseExpo pair split to read (cache key)")

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from mcnkit.datasets.pseudoslam import PseudoSlamConfig
 from mcnkit.datasets.pairs import PairConfig, load_or_build_houseexpo_pairs, pair_stats, procedural_pairs
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
@@ -94,3 +95,20 @@ def test_real_pairs_small(shared_data: Path, tmp_path: Path) -> None:
     st = pair_stats(splits.train)
     assert (len(splits.train), len(splits.val), len(splits.test)) == (100, 10, 20)
     assert 0.45 < st.free_fraction < 0.65 and 0.03 < st.observed_share < 0.1
+
+
+def test_exploration_pairs_see_more_and_keep_the_paper_cache_key(shared_data: Path, tmp_path: Path) -> None:
+    archive = shared_data / "houseexpo" / "json.tar.gz"
+    paper = PairConfig(40, 5, 5)
+    explore = PairConfig(40, 5, 5, pseudoslam=PseudoSlamConfig(range_m=8.0, fov_deg=360.0), max_scans=12)
+    first, _ = load_or_build_houseexpo_pairs(archive, tmp_path / "a", paper, progress=False)
+    many, _ = load_or_build_houseexpo_pairs(archive, tmp_path / "b", explore, progress=False)
+    assert first.train.ids == many.train.ids and first.train.target.tobytes() == many.train.target.tobytes()
+    # Several 360° scans see several times more of the house than one 180°, 2 m scan.
+    assert pair_stats(many.train).observed_share > 3 * pair_stats(first.train).observed_share
+    # Pooling keeps the first wall pixel a scan hits: whatever m_t shows occupied is occupied in m_T.
+    assert np.all(many.train.target[many.train.partial == OCCUPIED] == OCCUPIED)
+    # The paper's pairs keep the cache key they had before max_scans existed (no rebuild of existing caches).
+    key = json.loads((tmp_path / "a" / "houseexpo-pairs.manifest.json").read_text())["key"]
+    assert "max_scans" not in key["config"]
+    assert json.loads((tmp_path / "b" / "houseexpo-pairs.manifest.json").read_text())["key"]["config"]["max_scans"] == 12

@@ -7,6 +7,7 @@ import pytest
 
 from mcnkit.datasets.pseudoslam import (
     PseudoSlamConfig,
+    exploration,
     first_iteration,
     pseudo_slam_scan,
     random_start_pose,
@@ -79,3 +80,38 @@ def test_first_iteration_deterministic(room: np.ndarray) -> None:
 def test_no_free_pixel_raises() -> None:
     with pytest.raises(ValueError, match="no free pixel"):
         random_start_pose(np.zeros((10, 10), bool), PseudoSlamConfig(), np.random.default_rng(0))
+
+
+@pytest.fixture
+def two_rooms() -> np.ndarray:
+    """Two 16 × 16 px rooms joined by a 6 px door in the wall at rows 18-19."""
+    free = np.zeros((38, 20), bool)
+    free[2:18, 2:18] = True
+    free[20:36, 2:18] = True
+    free[18:20, 7:13] = True
+    return free
+
+
+def test_exploration_of_one_scan_is_the_first_iteration(two_rooms: np.ndarray) -> None:
+    cfg = PseudoSlamConfig(range_m=4.0, fov_deg=360.0)
+    a = exploration(two_rooms, cfg, 1, np.random.default_rng(3))
+    b = first_iteration(two_rooms, cfg, np.random.default_rng(3))
+    np.testing.assert_array_equal(a.observed, b.observed)
+    assert a.pose_px == b.pose_px
+
+
+def test_exploration_grows_the_map_and_never_contradicts_the_truth(two_rooms: np.ndarray) -> None:
+    cfg = PseudoSlamConfig(range_m=4.0, fov_deg=360.0)
+    known = [(exploration(two_rooms, cfg, n, np.random.default_rng(3)).observed != UNKNOWN) for n in (1, 4, 30)]
+    assert known[0].sum() <= known[1].sum() <= known[2].sum()
+    assert known[0].sum() < known[2].sum()
+    obs = exploration(two_rooms, cfg, 30, np.random.default_rng(3))
+    seen = obs.observed != UNKNOWN
+    np.testing.assert_array_equal(obs.observed[seen], obs.ground_truth[seen])
+    # After 30 scans from poses the robot could reach, both rooms are seen (the door lets it through).
+    assert (obs.observed[two_rooms] == FREE).mean() > 0.95
+
+
+def test_exploration_needs_a_scan(room: np.ndarray) -> None:
+    with pytest.raises(ValueError, match="n_scans"):
+        exploration(room, PseudoSlamConfig(), 0, np.random.default_rng(0))
