@@ -90,7 +90,7 @@ class Exp3Config:
     window_m: float = 16.0
     size: int = 64
     samples: int = 8
-    models: tuple[str, ...] = ("unet", "pix2pix")
+    models: tuple[str, ...] = ("unet", "unet-explore", "pix2pix")
     particles: int = 30
     seed: int = 0
     threads: int = 1
@@ -368,7 +368,7 @@ def add_exp3_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     parser.add_argument("--window", type=float, default=d.window_m, help="robot-centred window side [m]")
     parser.add_argument("--samples", type=int, default=d.samples, help="K completions per window (dropout on)")
     parser.add_argument("--models", nargs="+", default=list(d.models),
-                        help="completion networks: unet, pix2pix or checkpoint paths")
+                        help="completion networks: unet, unet-explore, pix2pix or checkpoint paths")
     parser.add_argument("--particles", type=int, default=d.particles, help="FastSLAM particles")
     parser.add_argument("--seed", type=int, default=d.seed, help="seed of SLAM and sampling")
     parser.add_argument("--threads", type=int, default=d.threads, help="torch CPU threads")
