@@ -54,7 +54,7 @@ def _child(mode: str, log: str, ranks: int, rrd: str, repeats: int = 2) -> None:
     from mcnkit.mcn import McnConfig, McnSlam, load_model
     from mcnkit.run import run_mcn
 
-    net = load_model("unet")
+    net = load_model("unet-explore")  # mcnkit run's default (same architecture and cost as "unet")
 
     def loop(record: bool) -> dict:
         mcn = McnSlam(config, net, McnConfig(samples=4, ranks=ranks, full_map_every=5 if record else 0),

@@ -176,8 +176,10 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p.add_argument("--rrd", type=Path, default=None, help="record every step to this Rerun file")
     p.add_argument("--out", type=Path, default=None,
                    help="also write trajectory.tum, map.pgm/.yaml/.png, completion.png, summary.json here")
-    p.add_argument("--model", default="unet",
-                   help=f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path")
+    p.add_argument("--model", default="unet-explore",
+                   help=f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path "
+                        "(default unet-explore: the U-net trained on maps part-way through an exploration, which "
+                        "leaves the outside of a building occupied; unet is the paper's, trained on one-scan maps)")
     p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")
     p.add_argument("--ranks", type=int, default=3, help="R best particles completed (default 3)")
     p.add_argument("--particles", type=int, default=30, help="SLAM particles (default 30)")

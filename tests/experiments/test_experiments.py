@@ -149,7 +149,7 @@ def test_exp3_converts_a_carmen_log(tmp_path: Path, tiny_net: str, shared_data: 
 def test_arguments_build_the_configs() -> None:
     a = add_exp2_arguments(argparse.ArgumentParser()).parse_args(["--out", "x", "--n-maps", "50", "--samples", "3"])
     c2 = exp2_config_from_args(a)
-    assert (c2.out_dir, c2.n_maps, c2.samples, c2.models) == ("x", 50, 3, ("pix2pix", "unet"))
+    assert (c2.out_dir, c2.n_maps, c2.samples, c2.models) == ("x", 50, 3, ("pix2pix", "unet", "unet-explore"))
     b = add_exp3_arguments(argparse.ArgumentParser()).parse_args(["--out", "y", "--points", "0.2", "0.8"])
     c3 = exp3_config_from_args(b)
     assert (c3.out_dir, c3.points, c3.logs) == ("y", (0.2, 0.8), ())
