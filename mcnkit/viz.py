@@ -256,6 +256,8 @@ def _columns(kind: str, values: list[Any]) -> Any:
         v = np.asarray(values)
         return rr.Transform3D.columns(translation=np.c_[v[:, 0], v[:, 1], np.zeros(n)],
                                       scale=np.c_[v[:, 2], v[:, 2], np.ones(n)])
+    if kind == "text":  # one filter-update message per row
+        return rr.TextLog.columns(text=values, level=["INFO"] * n)
     return rr.Scalars.columns(scalars=np.asarray(values, np.float64))
 
 
@@ -265,7 +267,7 @@ class RerunLogger:
 
     def __init__(self, path: str | Path, recording_id: str | None = None,
                  blueprint: rrb.Blueprint | None = None, *, notebook_viewer: bool = False,
-                 viewer_size: tuple[int, int] = (1000, 520), flush_updates: int = 25) -> None:
+                 viewer_size: tuple[int, int] = (1000, 520), flush_updates: int = 50) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         recording_id = recording_id or str(uuid.uuid4())
@@ -359,7 +361,7 @@ class RerunLogger:
                 self.rec.log(entity, rr.Points2D.from_fields(radii=[0.03], colors=[[255, 160, 0]]), static=True)
             elif kind == "arrow":
                 self.rec.log(entity, rr.Arrows2D.from_fields(colors=[[230, 40, 40]]), static=True)
-            elif kind == "scalar":  # the series' name and colour (MCN scores only exist in MCN recordings)
+            elif kind == "scalar" and entity.rsplit("/", 1)[-1] in _METRICS:  # MCN scores: name and colour
                 color, label = _METRICS[entity.rsplit("/", 1)[-1]]
                 self.rec.log(entity, rr.SeriesLines(names=label, colors=[color], widths=2), static=True)
         queue = self._queued[entity]
@@ -416,10 +418,9 @@ class RerunLogger:
                 if trajectory_xy is not None:
                     self.rec.log("/world/robot/trajectory",
                                  rr.LineStrips2D([trajectory_xy], radii=0.03, colors=[[0, 180, 0]]))
-            self.rec.log("/metrics/n_eff", rr.Scalars(step.neff))
+            self._queue("/metrics/n_eff", "scalar", step.index, step.stamp_ns, float(step.neff))
             what = "filter update, particles resampled" if step.resampled else "filter update"
-            self.rec.log("/log", rr.TextLog(f"scan {step.index}: {what} (N_eff {step.neff:.1f})",
-                                            level=rr.TextLogLevel.INFO))
+            self._queue("/log", "text", step.index, step.stamp_ns, f"scan {step.index}: {what} (N_eff {step.neff:.1f})")
 
     def close(self) -> None:
         """Sends what is buffered, flushes and finalises the file (idempotent)."""

@@ -24,7 +24,8 @@ def sim_run():  # type: ignore[no-untyped-def]
     return simulate(plan_raster("procedural:1", 0.05, None), SimConfig(max_duration_s=12.0), seed=0)
 
 
-def _record(path: Path, sim_run, stop_after: int | None = None) -> int:  # type: ignore[no-untyped-def]
+def _record(path: Path, sim_run, stop_after: int | None = None) -> tuple[int, int]:  # type: ignore[no-untyped-def]
+    """Records a FastSLAM run; returns (steps, filter updates)."""
     rr.set_strict_mode(True)
     slam = FastSlam(SlamConfig(n_particles=N_PARTICLES), np.random.default_rng(0))
     n = 0
@@ -39,12 +40,12 @@ def _record(path: Path, sim_run, stop_after: int | None = None) -> int:  # type:
             if step.updated:
                 viz.log_map("/world/map/estimate", slam.best_ternary(), mask=True)
             n += 1
-    return n
+    return n, slam.n_updates
 
 
 def test_a_recording_holds_every_step_and_its_blueprint(tmp_path: Path, sim_run) -> None:  # type: ignore[no-untyped-def]
     path = tmp_path / "run.rrd"
-    n = _record(path, sim_run)
+    n, updates = _record(path, sim_run)
     reader = RrdReader(path)
     assert [s.application_id for s in reader.recordings()] == ["mcnkit"]
     assert len(reader.blueprints()) == 1
@@ -58,6 +59,11 @@ def test_a_recording_holds_every_step_and_its_blueprint(tmp_path: Path, sim_run)
     assert all(len(positions[i].values) == N_PARTICLES for i in range(table.num_rows))
     weights = table.column("/world/particles:weight")
     assert np.isclose(np.asarray(weights[0].values).sum(), 1.0)
+    # one N_eff value and one text line per filter update, on the steps of those updates
+    n_eff = store.reader(index="step", contents="/metrics/n_eff").to_arrow_table()
+    log = store.reader(index="step", contents="/log").to_arrow_table()
+    assert n_eff.num_rows == log.num_rows == updates
+    assert "filter update" in str(log.column("/log:TextLog:text")[0])
     verify = subprocess.run([sys.executable, "-m", "rerun", "rrd", "verify", str(path)], capture_output=True, text=True)
     assert verify.returncode == 0, verify.stderr
 
