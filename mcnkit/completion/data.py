@@ -17,7 +17,14 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from mcnkit.datasets import PairConfig, PseudoSlamConfig, PairSet, PairSplits, load_or_build_houseexpo_pairs, procedural_pairs
+from mcnkit.datasets import (
+    PairConfig,
+    PairSet,
+    PairSplits,
+    PseudoSlamConfig,
+    load_or_build_houseexpo_pairs,
+    procedural_pairs,
+)
 from mcnkit.datasets.houseexpo import default_data_dir, find_houseexpo
 from mcnkit.grid import ternary_to_network
 

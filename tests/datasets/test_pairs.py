@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from mcnkit.datasets.pseudoslam import PseudoSlamConfig
 from mcnkit.datasets.pairs import PairConfig, load_or_build_houseexpo_pairs, pair_stats, procedural_pairs
+from mcnkit.datasets.pseudoslam import PseudoSlamConfig
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
 
