@@ -77,6 +77,9 @@ def slam_blueprint() -> rrb.Blueprint:
 
 _METRICS = {"f_slam": ((120, 120, 120), "F, SLAM map"), "f_completed": ((220, 60, 30), "F, completed"),
             "miou_unknown": ((30, 150, 60), "mIoU unknown cells"), "sample_diversity": ((150, 60, 200), "diversity")}
+"""MCN scores recorded under ``/metrics/<key>``: colour and name of each series."""
+_SERIES = {**_METRICS, "n_eff": ((30, 120, 220), "N_eff")}
+"""Every ``/metrics`` series (the scores and N_eff): colour and name."""
 
 
 def _map_view(name: str, entity: str, *extra: str) -> rrb.Spatial2DView:
@@ -281,7 +284,6 @@ class RerunLogger:
         self.rec.log("/world/map/unknown_mask", rr.AnnotationContext([
             rr.AnnotationInfo(id=0, label="known", color=(0, 0, 0, 0)),
             rr.AnnotationInfo(id=1, label="unknown", color=(255, 0, 255, 90))]), static=True)
-        self.rec.log("/metrics/n_eff", rr.SeriesLines(names="N_eff", colors=[[30, 120, 220]], widths=2), static=True)
         self._odom_path: list[NDArray[np.float64]] = []
         self._updates = 0
         self._paths_logged_at = 0
@@ -361,8 +363,8 @@ class RerunLogger:
                 self.rec.log(entity, rr.Points2D.from_fields(radii=[0.03], colors=[[255, 160, 0]]), static=True)
             elif kind == "arrow":
                 self.rec.log(entity, rr.Arrows2D.from_fields(colors=[[230, 40, 40]]), static=True)
-            elif kind == "scalar" and entity.rsplit("/", 1)[-1] in _METRICS:  # MCN scores: name and colour
-                color, label = _METRICS[entity.rsplit("/", 1)[-1]]
+            elif kind == "scalar":  # the series' name and colour
+                color, label = _SERIES[entity.rsplit("/", 1)[-1]]
                 self.rec.log(entity, rr.SeriesLines(names=label, colors=[color], widths=2), static=True)
         queue = self._queued[entity]
         queue[1].append(step)

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 from mcnkit.cli import fail
 from mcnkit.completion.checkpoint import CheckpointError
+from mcnkit.completion.data import DOMAINS
 
 __all__ = ["add_exp1_arguments", "add_train_parser", "cmd_experiment", "cmd_train", "main"]
 
@@ -72,7 +73,7 @@ def add_train_parser(subparsers: argparse._SubParsersAction) -> None:
     """Adds ``train``."""
     p = subparsers.add_parser("train", help="train a map completion network (U-net or pix2pix)")
     p.add_argument("--model", choices=["unet", "pix2pix"], default="unet")
-    p.add_argument("--domain", choices=["houseexpo", "houseexpo-explore", "procedural"], default="houseexpo",
+    p.add_argument("--domain", choices=DOMAINS, default="houseexpo",
                    help="houseexpo: the paper's pairs (one 180°, 2 m scan); houseexpo-explore: m_t after 1-12 scans "
                         "of a 360°, 8 m lidar (what MCN-SLAM completes during a run); procedural: HOME'S-style masks")
     p.add_argument("--out", required=True, help="run directory (best.* and last.* checkpoints)")

@@ -10,8 +10,8 @@ transpose; or flips only), the same for m_t and m_T, from an injected :class:`to
 from __future__ import annotations
 
 import os
-from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -30,9 +30,13 @@ from mcnkit.grid import ternary_to_network
 
 __all__ = ["DOMAINS", "augment_dihedral", "encode", "load_domain_pairs"]
 
-DOMAINS = ("houseexpo", "houseexpo-explore", "procedural")
-EXPLORE_SCANS = 12
-"""``houseexpo-explore``: m_t = 1..12 scans of a 360°, 8 m lidar (Experiment 2's robot) instead of one 180°, 2 m scan."""
+_HOUSEEXPO_DOMAINS: dict[str, dict[str, Any]] = {
+    "houseexpo": {},  # the paper's pairs: one 180°, 2 m Pseudo-SLAM scan
+    # m_t = 1..12 scans of a 360°, 8 m lidar (Experiment 2's robot)
+    "houseexpo-explore": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12},
+}
+"""HouseExpo domains: how each one's :class:`~mcnkit.datasets.PairConfig` differs from the paper's."""
+DOMAINS = (*_HOUSEEXPO_DOMAINS, "procedural")
 
 
 def _shared_houseexpo() -> Path | None:
@@ -55,15 +59,13 @@ def load_domain_pairs(
     """Train/val/test pairs of ``domain``; HouseExpo from ``houseexpo`` (default: installed, then ../shared/data)."""
     if domain == "procedural":
         return procedural_pairs(n_train, n_val, n_test, seed=seed)
-    if domain not in ("houseexpo", "houseexpo-explore"):
+    if domain not in _HOUSEEXPO_DOMAINS:
         raise ValueError(f"unknown domain {domain!r} (choose from {', '.join(DOMAINS)})")
     source = Path(houseexpo) if houseexpo else (find_houseexpo() or _shared_houseexpo())
     if source is None or not source.exists():
         raise FileNotFoundError(2, "HouseExpo not found (install it or pass --houseexpo)", str(source or "houseexpo"))
     cache = Path(cache_dir) if cache_dir else default_data_dir() / "cache" / f"{domain}-{n_train}"
-    cfg = PairConfig(n_train=n_train, n_val=n_val, n_test=n_test, seed=seed)
-    if domain == "houseexpo-explore":
-        cfg = replace(cfg, pseudoslam=PseudoSlamConfig(range_m=8.0, fov_deg=360.0), max_scans=EXPLORE_SCANS)
+    cfg = PairConfig(n_train=n_train, n_val=n_val, n_test=n_test, seed=seed, **_HOUSEEXPO_DOMAINS[domain])
     splits, _ = load_or_build_houseexpo_pairs(source, cache, cfg, progress=progress)
     return splits
 

@@ -39,7 +39,7 @@ from mcnkit.datasets.floorplans import (
     rasterize_apartment,
 )
 from mcnkit.datasets.houseexpo import FloorPlan, SkipLog, iter_plans, rasterize_plan, read_split, sha256_of
-from mcnkit.datasets.pseudoslam import PseudoSlamConfig, exploration, first_iteration, free_to_ternary
+from mcnkit.datasets.pseudoslam import PseudoSlamConfig, exploration, free_to_ternary
 from mcnkit.grid import pad_to_square, resize_ternary
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
@@ -147,10 +147,9 @@ def houseexpo_pair(plan: FloorPlan, config: PairConfig) -> tuple[F32, F32]:
     ps = config.pseudoslam
     free, _ = rasterize_plan(plan, 1.0 / ps.px_per_m, ps.border_px)
     rng = _pair_rng(config.seed, plan.id)
-    if config.max_scans > 1:
-        obs = exploration(free, ps, int(rng.integers(1, config.max_scans + 1)), rng)
-    else:
-        obs = first_iteration(free, ps, rng)
+    # the paper's pairs draw no scan count (their draws, and so their caches, predate max_scans)
+    n_scans = int(rng.integers(1, config.max_scans + 1)) if config.max_scans > 1 else 1
+    obs = exploration(free, ps, n_scans, rng)
     observed, truth = obs.observed, obs.ground_truth
     b = ps.border_px
     if config.crop_to_plan and b > 0 and min(free.shape) > 2 * b:

@@ -164,8 +164,7 @@ def random_start_pose(
 
 def first_iteration(free: BoolArray, config: PseudoSlamConfig, rng: np.random.Generator) -> PseudoSlamObservation:
     """The paper's m_t and m_T on the raster: one scan from a random free start pose, and the ground truth."""
-    pose = random_start_pose(free, config, rng)
-    return PseudoSlamObservation(free_to_ternary(free), pseudo_slam_scan(free, pose, config), pose)
+    return exploration(free, config, 1, rng)
 
 
 def exploration(
@@ -174,7 +173,7 @@ def exploration(
     """m_t after ``n_scans`` scans: the first from :func:`random_start_pose`, each next one from a pixel drawn
     uniformly among the safe pixels (robot disc clear of obstacles) that the scans so far observed free — where a
     robot that drives only through known free space can be — with a uniform heading.  ``pose_px`` is the first
-    pose.  ``n_scans = 1`` is :func:`first_iteration` (same draws).
+    pose.  ``n_scans = 1`` is the paper's :func:`first_iteration`.
     """
     if n_scans < 1:
         raise ValueError(f"n_scans must be at least 1, got {n_scans}")
