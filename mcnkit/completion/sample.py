@@ -70,7 +70,11 @@ _FROZEN: weakref.WeakKeyDictionary[nn.Module, tuple[tuple[int, ...], UNet]] = we
 
 
 def _fingerprint(net: nn.Module) -> tuple[int, ...]:
-    return tuple(v for t in (*net.parameters(), *net.buffers()) for v in (id(t), t._version))
+    """Identity and in-place version of every weight.  Tensors made under ``torch.inference_mode`` (a net loaded
+    there) keep no version: for them only a replaced tensor counts as a change."""
+    return tuple(
+        v for t in (*net.parameters(), *net.buffers()) for v in (id(t), -1 if t.is_inference() else t._version)
+    )
 
 
 def _fold_bn(conv: nn.Module, bn: nn.BatchNorm2d) -> None:

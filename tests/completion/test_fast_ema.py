@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from mcnkit.completion.checkpoint import load_checkpoint
+from mcnkit.completion.checkpoint import load_checkpoint, load_generator, save_checkpoint
 from mcnkit.completion.data import augment_dihedral, encode
 from mcnkit.completion.nets import UNet, UNetConfig, has_spectral_norm, spectral_layers
 from mcnkit.completion.sample import complete, inference_net, sample_completions
@@ -56,6 +56,17 @@ def test_fast_path_follows_weight_changes(tiny_splits: PairSplits) -> None:
     with torch.no_grad():
         torch.testing.assert_close(inference_net(net)(x), net(x), atol=1e-5, rtol=1e-4)
     assert not np.array_equal(complete(net, tiny_splits.test.partial), before)
+
+
+def test_a_checkpoint_loaded_under_inference_mode_completes(tmp_path: Path, tiny_splits: PairSplits) -> None:
+    # weights made under torch.inference_mode keep no in-place version; the fast path must still take them
+    net = _trained_a_bit(tiny_splits)
+    expected = complete(net, tiny_splits.test.partial)
+    save_checkpoint(tmp_path / "ckpt", "unet", net)
+    with torch.inference_mode():
+        loaded, _ = load_generator(tmp_path / "ckpt")
+        assert np.array_equal(complete(loaded, tiny_splits.test.partial), expected)
+        assert sample_completions(loaded, tiny_splits.test.partial[:2], k=2).samples.shape[:2] == (2, 2)
 
 
 def test_sampling_through_fast_path_is_seeded_and_diverse(tiny_splits: PairSplits) -> None:
