@@ -32,6 +32,7 @@ import argparse
 import json
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -39,8 +40,9 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from mcnkit.completion.checkpoint import load_generator
-from mcnkit.completion.data import encode_partial, load_domain_pairs
-from mcnkit.completion.sample import inference_net
+from mcnkit.completion.data import load_domain_pairs
+from mcnkit.completion.nets import UNet
+from mcnkit.completion.sample import complete, network_outputs
 from mcnkit.completion.scores import score_maps
 from mcnkit.datasets import PairSet
 from mcnkit.grid import network_to_ternary
@@ -48,16 +50,6 @@ from mcnkit.grid import network_to_ternary
 ROOT = Path(__file__).resolve().parents[1]
 WEIGHTS = ROOT / "mcnkit" / "weights"
 F32 = NDArray[np.float32]
-
-
-@torch.inference_mode()
-def _outputs(path: str | Path, partial: F32, flips: bool = False) -> F32:
-    """Raw network outputs (N, 2, H, W) of the checkpoint at ``path``; ``flips``: mean over the 4 flips."""
-    net = inference_net(load_generator(path)[0])
-    x = encode_partial(partial)
-    dims_set = [(), (-1,), (-2,), (-1, -2)] if flips else [()]
-    total = sum(net(x.flip(d)).flip(d) if d else net(x) for d in dims_set)
-    return (total / len(dims_set)).numpy()
 
 
 def _threshold(out: F32, t: float) -> F32:
@@ -84,8 +76,7 @@ def _footprint(free: NDArray[np.bool_]) -> NDArray[np.bool_]:
     return ndimage.binary_fill_holes(ndimage.binary_closing(free, iterations=2))
 
 
-def _label(path: Path) -> str:
-    net, info = load_generator(path)
+def _label(net: UNet, info: dict[str, Any]) -> str:
     c = net.config
     n_params = sum(p.numel() for p in net.parameters())
     model = info.get("train_config", {}).get("model", "unet")
@@ -95,8 +86,11 @@ def _label(path: Path) -> str:
 
 
 def _rows(sets: dict[str, PairSet], extra: list[str]) -> list[dict[str, object]]:
-    nets = {"(B) U-net": WEIGHTS / "unet-houseexpo", "(A) pix2pix": WEIGHTS / "pix2pix-houseexpo"}
-    nets |= {_label(Path(e)): Path(e) for e in extra}
+    nets = {"(B) U-net": load_generator(WEIGHTS / "unet-houseexpo")[0],
+            "(A) pix2pix": load_generator(WEIGHTS / "pix2pix-houseexpo")[0]}
+    for path in extra:
+        net, info = load_generator(path)
+        nets[_label(net, info)] = net
     rows: list[dict[str, object]] = []
 
     def add(method: str, split: str, pred: F32) -> None:
@@ -106,10 +100,10 @@ def _rows(sets: dict[str, PairSet], extra: list[str]) -> list[dict[str, object]]
                      "f_ci95": sc.f_ci95, "miou_unknown": sc.miou_unknown})
 
     for split, s in sets.items():
-        outs = {name: _outputs(path, s.partial) for name, path in nets.items()}
+        outs = {name: network_outputs(net, s.partial) for name, net in nets.items()}
         for name, out in outs.items():
             add(name, split, network_to_ternary(out))
-        add("(B) U-net, mean over 4 flips", split, network_to_ternary(_outputs(nets["(B) U-net"], s.partial, True)))
+        add("(B) U-net, mean over 4 flips", split, complete(nets["(B) U-net"], s.partial, symmetric=True, transpose=False))
         add("ensemble: mean of (A) and (B)", split, network_to_ternary((outs["(A) pix2pix"] + outs["(B) U-net"]) / 2))
         for t in (0.4, 0.45, 0.55, 0.6):
             add(f"(B) U-net, occupied if image' >= {t}", split, _threshold(outs["(B) U-net"], t))

@@ -35,7 +35,15 @@ from mcnkit.completion.nets import UNet
 from mcnkit.grid import network_to_ternary, ternary_to_network
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
-__all__ = ["SampleSet", "complete", "diversity", "inference_net", "label_entropy", "sample_completions"]
+__all__ = [
+    "SampleSet",
+    "complete",
+    "diversity",
+    "inference_net",
+    "label_entropy",
+    "network_outputs",
+    "sample_completions",
+]
 
 F32 = NDArray[np.float32]
 
@@ -141,28 +149,33 @@ def inference_net(net: UNet) -> UNet:
     return frozen
 
 
-def _symmetric_output(net: UNet, x: torch.Tensor) -> torch.Tensor:
-    """Mean of the outputs over the 8 symmetries of the square (each undone on its output); x square."""
+def _symmetric_output(net: UNet, x: torch.Tensor, transpose: bool = True) -> torch.Tensor:
+    """Mean of the outputs over the symmetries of the square (each undone on its output); x square.  The 8
+    symmetries, or with ``transpose=False`` the 4 flips (what a net trained with ``--flips-only`` has seen)."""
+    transposes = (False, True) if transpose else (False,)
+    ops = [(t, dims) for t in transposes for dims in ((), (-1,), (-2,), (-2, -1))]
     total = torch.zeros((x.shape[0], 2, *x.shape[2:]), dtype=x.dtype, device=x.device)
-    for t in range(2):
-        for k in range(4):
-            xi = torch.rot90(x.transpose(-1, -2) if t else x, k, dims=(-2, -1))
-            yi = torch.rot90(net(xi), -k, dims=(-2, -1))
-            total += yi.transpose(-1, -2) if t else yi
-    return total / 8.0
+    for t, dims in ops:
+        xi = x.transpose(-1, -2) if t else x
+        yi = net(xi.flip(dims) if dims else xi)
+        yi = yi.flip(dims) if dims else yi
+        total += yi.transpose(-1, -2) if t else yi
+    return total / len(ops)
 
 
 @torch.inference_mode()
-def complete(
+def network_outputs(
     net: UNet,
     partial: NDArray[np.floating],
     device: torch.device | str = "cpu",
     batch_size: int = 256,
     symmetric: bool = False,
+    transpose: bool = True,
 ) -> F32:
-    """Deterministic completions (N, H, W) ternary of m_t (N, H, W); the net is used in eval mode.
+    """The net's deterministic outputs (N, 2, H, W) in [0, 1] for m_t (N, H, W); the net is used in eval mode.
 
-    ``symmetric``: average the output over the 8 symmetries of the square before conversion (8× the cost).
+    ``symmetric``: the mean output over the symmetries of the square (8× the cost; ``transpose=False``: over the 4
+    flips, 4× the cost).
     """
     fast = inference_net(net)  # always in eval mode; ``net`` itself is not touched (no mode switches)
     was_training = net.training
@@ -172,12 +185,25 @@ def complete(
     outs = []
     for i in range(0, len(partial), batch_size):
         x = _as_input(partial[i : i + batch_size], dev)
-        outs.append((_symmetric_output(fast, x) if symmetric else fast(x)).cpu().numpy())
+        outs.append((_symmetric_output(fast, x, transpose) if symmetric else fast(x)).cpu().numpy())
     if fast is net:
         net.train(was_training)
     if not outs:
-        return np.zeros((0, *np.shape(partial)[1:]), np.float32)
-    return network_to_ternary(np.concatenate(outs))
+        return np.zeros((0, 2, *np.shape(partial)[1:]), np.float32)
+    return np.concatenate(outs)
+
+
+def complete(
+    net: UNet,
+    partial: NDArray[np.floating],
+    device: torch.device | str = "cpu",
+    batch_size: int = 256,
+    symmetric: bool = False,
+    transpose: bool = True,
+) -> F32:
+    """Deterministic completions (N, H, W) ternary of m_t (N, H, W): :func:`network_outputs` converted by the
+    paper's rule."""
+    return network_to_ternary(network_outputs(net, partial, device, batch_size, symmetric, transpose))
 
 
 def label_entropy(samples: NDArray[np.floating]) -> F32:

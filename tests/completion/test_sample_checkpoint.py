@@ -78,3 +78,4 @@ def test_symmetric_completion_of_a_symmetric_net_is_unchanged(tiny_splits: PairS
     net = Identity(TINY)
     m = tiny_splits.test.partial
     assert np.array_equal(complete(net, m, symmetric=True), complete(net, m))
+    assert np.array_equal(complete(net, m, symmetric=True, transpose=False), complete(net, m))  # the 4 flips
