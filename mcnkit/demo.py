@@ -22,13 +22,13 @@ import torch
 
 from mcnkit.io import open_log
 from mcnkit.io.cli import describe, print_info
+from mcnkit.io.mapfiles import write_map
 from mcnkit.mcn import McnConfig, McnSlam, load_model
 from mcnkit.metrics import absolute_trajectory_error, write_tum
 from mcnkit.plots import completion_figure
 from mcnkit.run import run_mcn
 from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
 from mcnkit.slam import SlamConfig
-from mcnkit.slam.cli import write_map
 from mcnkit.types import TernaryMap
 
 __all__ = ["DemoResult", "add_demo_parser", "run_demo"]

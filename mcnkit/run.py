@@ -113,8 +113,8 @@ def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, r
 
 
 def _write_outputs(out: Path, mcn: McnSlam, summary: RunSummary, args: argparse.Namespace) -> None:
+    from mcnkit.io.mapfiles import write_map
     from mcnkit.metrics import write_tum
-    from mcnkit.slam.cli import write_map
 
     out.mkdir(parents=True, exist_ok=True)
     write_tum(out / "trajectory.tum", mcn.slam.trajectory())

@@ -46,6 +46,8 @@ class LogReader(ABC):
 
     path: Path
     format: str
+    laser_lines: int | None = None
+    """How many laser records the log holds for the scan source, read or not (text logs; None: not counted)."""
 
     @property
     @abstractmethod

@@ -40,6 +40,8 @@ def describe(log: LogReader) -> dict[str, object]:
     if log.scan_topic:
         spec = log.lidar_spec
         info["scans"] = next((t.count for t in log.topics if t.name == log.scan_topic), 0)
+        if log.laser_lines is not None:
+            info["laser_lines"] = log.laser_lines
         info["scanner"] = {
             "beams": spec.n_beams,
             "fov_deg": round(math.degrees(spec.fov_rad), 3),
@@ -73,7 +75,8 @@ def print_info(info: dict[str, Any]) -> None:
     print(f"odometry  {info['odom_source'] or 'none (no Odometry topic, no odom->base transform)'}")
     if "scanner" in info:
         s = info["scanner"]
-        print(f"scanner   {info['scans']} scans of {s['beams']} beams, field of view {s['fov_deg']}° "
+        read = f" (read from {info['laser_lines']} laser lines)" if "laser_lines" in info else ""
+        print(f"scanner   {info['scans']} scans{read} of {s['beams']} beams, field of view {s['fov_deg']}° "
               f"(from {s['angle_min_deg']}° in {s['angle_increment_deg']}° steps), "
               f"range {s['range_min_m']}–{s['range_max_m']} m, mount {s['base_to_laser']}")
 

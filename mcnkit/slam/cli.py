@@ -22,6 +22,7 @@ Outputs of ``mcnkit slam LOG --out DIR``:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import resource
 import sys
@@ -31,9 +32,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from mcnkit.io.errors import LogError
+from mcnkit.io.mapfiles import write_map_strips
 from mcnkit.metrics import (
     absolute_trajectory_error,
     read_relations,
@@ -44,11 +45,9 @@ from mcnkit.metrics import (
 )
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.fastslam import FastSlam
-from mcnkit.types import OccupancyGrid
 
-__all__ = ["add_eval_parser", "add_slam_parser", "run_eval_ate", "run_eval_relations", "run_slam", "write_map"]
+__all__ = ["add_eval_parser", "add_slam_parser", "run_eval_ate", "run_eval_relations", "run_slam"]
 
-_PGM_OCCUPIED, _PGM_FREE, _PGM_UNKNOWN = 0, 254, 205
 
 
 def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -101,28 +100,6 @@ def _open(path: Path) -> Any:
     return open_log(path)
 
 
-def _ternary_to_pgm(grid: OccupancyGrid) -> NDArray[np.uint8]:
-    img = np.full(grid.spec.shape, _PGM_UNKNOWN, np.uint8)
-    img[grid.log_odds > 0] = _PGM_OCCUPIED
-    img[grid.log_odds < 0] = _PGM_FREE
-    return np.ascontiguousarray(img[::-1])  # image row 0 is the top (highest y)
-
-
-def write_map(grid: OccupancyGrid, out_dir: Path, stem: str = "map") -> None:
-    """Writes ``stem.pgm`` + ``stem.yaml`` (ROS map_server) and ``stem.png`` for an occupancy grid."""
-    img = _ternary_to_pgm(grid)
-    h, w = img.shape
-    (out_dir / f"{stem}.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + img.tobytes())
-    s = grid.spec
-    (out_dir / f"{stem}.yaml").write_text(
-        f"image: {stem}.pgm\nresolution: {s.resolution_m:g}\norigin: [{s.origin_x_m:.6f}, {s.origin_y_m:.6f}, 0.0]\n"
-        "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
-    )
-    from PIL import Image  # matplotlib's dependency; only needed here
-
-    Image.fromarray(img).save(out_dir / f"{stem}.png")
-
-
 def _scan_count(reader: Any) -> int | None:
     try:
         return next(t.count for t in reader.topics if t.name == reader.scan_topic)
@@ -173,13 +150,16 @@ def run_slam(args: argparse.Namespace) -> int:
     write_tum(out / "trajectory_gmapping.tum", slam.trajectory(mode="gmapping"))
     write_tum(out / "trajectory_matched.tum", slam.trajectory(mode="matched"))
     write_tum(out / "trajectory_smoothed.tum", slam.trajectory(mode="smoothed"))
-    grid = slam.best_map()
-    write_map(grid, out)
+    spec, strips = slam.best_map_strips()
+    write_map_strips(out, spec, strips, config.occ_thresh)
     summary = {
         "log": str(args.log),
         "particles": config.n_particles,
         "resolution_m": config.resolution_m,
         "seed": args.seed,
+        "config": dataclasses.asdict(config),
+        "loop_closures": slam.loops.stats.accepted,
+        "loop_corrections": slam.n_loop_corrections,
         "scans": slam.n_scans,
         "filter_updates": slam.n_updates,
         "resamplings": slam.n_resamples,
@@ -191,7 +171,7 @@ def run_slam(args: argparse.Namespace) -> int:
         "wall_s_filter": wall_slam,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "particle_maps_mb": slam.maps.nbytes / 1e6,
-        "map_cells": [grid.spec.height, grid.spec.width],
+        "map_cells": [spec.height, spec.width],
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     print(

@@ -11,7 +11,10 @@ Example:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+
+from mcnkit.types import LidarSpec
 
 __all__ = ["SlamConfig"]
 
@@ -27,7 +30,17 @@ class SlamConfig:
     max_range_m: float | None = None
     """Beams longer than this are ignored entirely; ``None``: the scanner's ``range_max_m`` - 0.01 [maxRange]."""
     max_usable_range_m: float | None = None
-    """Beams are used for matching and mapping only up to this range; ``None``: ``max_range_m`` [maxUrange]."""
+    """Beams are used for matching only up to this range; ``None``: ``max_range_m`` [maxUrange]."""
+    map_range_m: float | None = None
+    """The maps' ray casting (output map, the completion maps) clears space only up to this range; longer returns
+    mark no hit (gmapping's maxUrange for its map).  ``None``: derived from the scanner, the range at which
+    neighbouring beams land ``map_beam_spacing_cells`` cells apart (11.5 m for 1° beams at 5 cm, 23 m for 0.5°),
+    at least ``map_min_range_m``: farther out the beams fan into stripes that leave most cells unseen, and a
+    small heading error moves their end by more than a cell."""
+    map_beam_spacing_cells: float = 4.0
+    """See ``map_range_m``."""
+    map_min_range_m: float = 8.0
+    """See ``map_range_m``."""
     sigma_m2: float = 0.05
     """Scan-matcher score: each beam adds ``exp(-d²/sigma_m2)``, d the end point to cell-mean distance [sigma]."""
     kernel_size: int = 1
@@ -42,6 +55,9 @@ class SlamConfig:
     """Importance weight: each beam adds ``-d²/lsigma_m2`` to the log-likelihood [lsigma]."""
     ogain: float = 3.0
     """Weight flattening: weights ∝ exp((logw - max logw) / (ogain · N)) [ogain]."""
+    match_thin_m: float = 0.0
+    """Scan matching uses one end point per square of this side (0: every beam): near the robot many beams hit
+    the same cells, costing time but adding little (the map still gets every hit)."""
     lskip: int = 0
     """Use one beam out of ``lskip + 1`` when matching [lskip]."""
     minimum_score: float = 0.0
@@ -73,10 +89,125 @@ class SlamConfig:
     keeping the better-scoring match.  It changes no weight and no map: only the
     reported online trajectory (``FastSlam.trajectory(mode="online")``).  Off: the reported pose between updates
     is gmapping's."""
+    proposal: str = "gmapping"
+    """How particles are drawn at a filter update: ``"improved"`` (Grisetti et al. 2007; :mod:`mcnkit.slam.proposal`):
+    each particle's noise-free prediction is scan-matched and the particle drawn around the match with the
+    covariance of match likelihood × motion model; ``"gmapping"``: the motion model's samples hill-climbed, as the
+    OpenSLAM core does."""
+    proposal_beams: float = 20.0
+    """The scan's match curvature counts as that of this many independent beams (neighbouring beams see the same
+    wall and are not independent evidence)."""
+    wide_search: bool = True
+    """Before the hill climbing, search the best particle's map over a wide window for a pose that explains the
+    scan clearly better than the odometry's prediction, and move all particles there (:mod:`mcnkit.slam.widesearch`):
+    recovers odometry that is far off.  Off: gmapping's proposal alone."""
+    wide_window_m: float = 0.3
+    """Wide search window, ± in x and y: this much ..."""
+    wide_window_per_m: float = 1.0
+    """... plus this times the odometry step since the last update (odometry can be off by the whole step) ..."""
+    wide_max_window_m: float = 2.0
+    """... up to this."""
+    wide_window_rad: float = math.radians(8.0)
+    """Wide search window in heading, ±: this much ..."""
+    wide_window_rad_per_m: float = math.radians(10.0)
+    """... plus this per metre of the odometry step ..."""
+    wide_window_rad_per_rad: float = 0.3
+    """... plus this fraction of the odometry turn ..."""
+    wide_max_window_rad: float = math.radians(30.0)
+    """... up to this."""
+    wide_resolution_m: float = 0.1
+    """Cell size of the wide search's likelihood field (the hill climbing refines at ``resolution_m``)."""
+    wide_sigma_m: float = 0.15
+    """Likelihood field of the wide search: a hit explains end points within about this distance."""
+    wide_min_score: float = 0.4
+    """The wide optimum must reach this mean likelihood to be considered ..."""
+    wide_jump_ratio: float = 0.8
+    """... and the best pose near the prediction must score below this fraction of it for the particles to jump ..."""
+    wide_max_near_score: float = 0.35
+    """... and below this mean likelihood: only a prediction that explains little of the scan is searched around."""
+    wide_recentre: bool = False
+    """Also when the mode lies within the motion model's 3σ region, move the particle cloud onto it."""
+    loop_closure: bool = True
+    """Close loops through a pose graph over the filter updates (:mod:`mcnkit.slam.loops`); off: gmapping's filter
+    alone, which closes a loop only when some particle happens to be close enough when it comes back."""
+    loop_min_travel_m: float = 10.0
+    """An update is a loop candidate for a new one only when the path driven between them is longer than this
+    (closer ones are already in the particles' own maps)."""
+    loop_window_m: float = 0.5
+    """Loop search window, ± in x and y: this much ..."""
+    loop_window_per_m: float = 0.02
+    """... plus this per metre of path from the candidate through the pose graph (the path driven since it,
+    shortened by the loops already closed: how far the estimate can have drifted from it; scan matching
+    drifts ~1-2 % of the distance) ..."""
+    loop_max_window_m: float = 4.0
+    """... up to this."""
+    loop_window_rad: float = math.radians(5.0)
+    """Loop search window in heading (±), growing like the translation window ..."""
+    loop_window_rad_per_m: float = math.radians(0.2)
+    """... by this per metre of path ..."""
+    loop_max_window_rad: float = math.radians(30.0)
+    """... up to this."""
+    loop_min_reach_m: float = 2.0
+    """A candidate's estimated pose may lie beyond the window by the new scan's median range (scans about that far
+    apart see the same things), but at least this ..."""
+    loop_max_reach_m: float = 15.0
+    """... and at most this."""
+    loop_run_gap: int = 5
+    """Candidates form one earlier pass through the area while their update numbers are at most this far apart ..."""
+    loop_max_tries: int = 2
+    """... and the nearest node of each of the nearest this many passes is tried."""
+    loop_min_explained: float = 0.5
+    """A loop match needs this mean likelihood over all the scan's points (half of the scan explained) ..."""
+    loop_edge_length_m: float = 0.5
+    """A closed loop counts as this much path when measuring drift through the graph."""
+    loop_chain_m: float = 10.0
+    """The local map of a candidate holds the scans within this much path of it."""
+    loop_map_radius_m: float = 20.0
+    """Points farther than this from the robot are left out of loop matching (bounds the search grid)."""
+    loop_sigma_m: float = 0.1
+    """Likelihood field of loop matching: a hit explains end points within about this distance."""
+    loop_min_score: float = 0.6
+    """... and this mean likelihood over those of its points that land where the old scans looked."""
+    loop_ambiguity_m: float = 0.5
+    """A loop match is ambiguous (rejected) when a pose this far or farther away scores ..."""
+    loop_ambiguity_ratio: float = 0.9
+    """... at least this fraction of its score (a corridor fits anywhere along its axis)."""
+    loop_max_contradiction: float = 0.05
+    """A loop match is rejected when more than this fraction of its end points land where the old scans saw
+    empty space ..."""
+    loop_free_margin_m: float = 0.2
+    """... farther than this from any of their hits (a wrong match puts end points in open rooms)."""
+    loop_confirm_nodes: int = 3
+    """A loop match that would move the map waits for a second one, from one of the next this many updates ..."""
+    loop_confirm_m: float = 0.1
+    """... that places its node consistently: the two matched poses as far apart as the filter's poses, within
+    this (plus 5 % of the distance) ..."""
+    loop_confirm_rad: float = math.radians(2.0)
+    """... and this in heading."""
+    loop_sigma_xy_m: float = 0.05
+    """Stated precision of a loop match in the pose graph (translation) ..."""
+    loop_sigma_rad: float = math.radians(1.0)
+    """... and heading."""
+    loop_huber: float = 1e9
+    """Loop edges whose error exceeds this many standard deviations pull linearly, not quadratically (Huber)."""
+    loop_max_chi2: float = 50.0
+    """A loop edge whose squared Mahalanobis error after solving exceeds this is an outlier and dropped."""
+    graph_step_sigma_m: float = 0.02
+    """Stated precision of the filter's step between two updates in the pose graph: this much translation ..."""
+    graph_step_sigma_per_m: float = 0.03
+    """... plus this per metre of the step ..."""
+    graph_step_sigma_rad: float = math.radians(0.5)
+    """... and this much heading ..."""
+    graph_step_sigma_rad_per_m: float = math.radians(1.0)
+    """... plus this per metre of the step."""
+    motion_from_tracking: bool = True
+    """With ``track_every_scan``, the particles move by the tracked (scan-matched) motion between two scans
+    instead of the raw odometry's: odometry that slips or lies is corrected at every scan, not only at updates."""
     occ_thresh: float = 0.25
     """Output map: a cell is occupied when hits / (hits + passes) exceeds this [occ_thresh]."""
-    tile_cells: int = 8
-    """Side of the copy-on-write map tiles shared between particles (a power of two; 8 = 0.4 m at 5 cm)."""
+    tile_cells: int = 16
+    """Side of the copy-on-write map tiles shared between particles (a power of two; 16 = 0.8 m at 5 cm: the tile
+    table of every particle spans the whole mapped area, so larger tiles keep it small on campus-sized maps)."""
 
     def __post_init__(self) -> None:
         positive = {
@@ -94,7 +225,8 @@ class SlamConfig:
         for name, value in positive.items():
             if not value > 0:
                 raise ValueError(f"{name} must be > 0, got {value}")
-        for name, opt in (("max_range_m", self.max_range_m), ("max_usable_range_m", self.max_usable_range_m)):
+        for name, opt in (("max_range_m", self.max_range_m), ("max_usable_range_m", self.max_usable_range_m),
+                          ("map_range_m", self.map_range_m)):
             if opt is not None and not opt > 0:
                 raise ValueError(f"{name} must be > 0 or None, got {opt}")
         for name, value in (("srr", self.srr), ("srt", self.srt), ("str_", self.str_), ("stt", self.stt)):
@@ -106,8 +238,18 @@ class SlamConfig:
             raise ValueError(f"resample_threshold must be in [0, 1], got {self.resample_threshold}")
         if not 0.0 < self.occ_thresh < 1.0:
             raise ValueError(f"occ_thresh must be in (0, 1), got {self.occ_thresh}")
+        if self.proposal not in ("improved", "gmapping"):
+            raise ValueError(f"proposal must be 'improved' or 'gmapping', got {self.proposal!r}")
         if self.tile_cells & (self.tile_cells - 1):
             raise ValueError(f"tile_cells must be a power of two, got {self.tile_cells}")
+
+    def map_range(self, lidar: LidarSpec) -> float:
+        """``map_range_m``, or its derivation from the scanner (see the field), never beyond the scanner's range."""
+        limit = lidar.range_max_m - 0.01
+        if self.map_range_m is not None:
+            return min(self.map_range_m, limit)
+        spaced = self.map_beam_spacing_cells * self.resolution_m / max(abs(lidar.angle_increment_rad), 1e-6)
+        return min(max(spaced, self.map_min_range_m), limit)
 
     @property
     def gain(self) -> float:

@@ -20,7 +20,7 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,10 +29,14 @@ from numpy.typing import NDArray
 from mcnkit.geometry import compose, relative
 from mcnkit.grid import log_odds_to_ternary
 from mcnkit.slam.config import SlamConfig
-from mcnkit.slam.maps import TiledHitMaps, ray_cast_counts
-from mcnkit.slam.motion import MotionNoise, sample_motion
+from mcnkit.slam.correlative import LikelihoodGrid
+from mcnkit.slam.loops import LoopCloser
+from mcnkit.slam.maps import TiledHitMaps, ray_cast_counts, ray_cast_strips
+from mcnkit.slam.motion import MotionNoise, motion_std, sample_motion
+from mcnkit.slam.proposal import proposal_covariance
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
+from mcnkit.slam.widesearch import tracking_grid, wide_match
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
 __all__ = ["FastSlam", "LogLikelihoodHook", "SlamStep", "counts_to_grid"]
@@ -103,6 +107,8 @@ class FastSlam:
         self.n_scans = 0
         self.n_updates = 0
         self.n_resamples = 0
+        self.n_loop_corrections = 0
+        self.n_wide_jumps = 0
         self._last_odom = np.zeros(3)
         self._linear_m = 0.0
         self._angular_rad = 0.0
@@ -115,6 +121,11 @@ class FastSlam:
         self._scan_ranges: list[NDArray[np.float32]] = []  # every scan, for trajectory(mode="matched")
         self._scan_online: list[F64] = []  # the online pose of every scan (see SlamConfig.track_every_scan)
         self._scan_tracked: list[F64] = []  # that pose relative to the best particle's last update pose
+        self._update_hits: list[F64] = []  # hit points (M, 2) of every update scan, base frame
+        self._update_tracked: list[F64] = []  # the online pose at every update (where tracking restarts)
+        self._grid: LikelihoodGrid | None = None  # the best particle's map near the robot, for the wide search
+        self.loops = LoopCloser(config, config.resolution_m)
+        """The pose graph over the filter updates that closes loops (see :mod:`mcnkit.slam.loops`)."""
         self.extra_log_likelihood: LogLikelihoodHook | None = None
         """Optional term added to every particle's log-weight at each filter update, after scan matching and
         before normalisation (MCN-SLAM's completion-based weighting uses it); None: gmapping's weights only."""
@@ -134,10 +145,12 @@ class FastSlam:
         return np.argsort(-self.log_weight_sums, kind="stable")
 
     def beam_limits(self) -> tuple[float, float]:
-        """``(max_range_m, max_usable_range_m)`` of the beams used (needs the first frame)."""
+        """``(max_range_m, map_range_m)`` of the maps' ray casting (needs the first frame): beams longer than the
+        first are skipped; longer than the second, they clear space up to it and mark no hit."""
         if self._lidar is None:
             raise RuntimeError("no scan processed yet")
-        return self._ranges(self._lidar)
+        max_range, _ = self._ranges(self._lidar)
+        return max_range, self.config.map_range(self._lidar)
 
     @property
     def best_index(self) -> int:
@@ -149,27 +162,51 @@ class FastSlam:
         usable = self.config.max_usable_range_m if self.config.max_usable_range_m is not None else max_range
         return max_range, min(usable, max_range)
 
+    def _beams(self, frame: Frame) -> tuple[F64, F64, F64]:
+        """End points and back points (M', 2) of the usable beams that scan matching uses (thinned to one end point
+        per ``match_thin_m`` square), and the end points (M, 2) of all usable beams (the map's hits); base frame."""
+        lidar = frame.scan.spec
+        max_range, usable = self._ranges(lidar)
+        end, back = beam_points(frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range,
+                                usable, math.sqrt(2.0) * self.config.resolution_m, self.config.lskip)
+        hits = end
+        if self.config.lskip:
+            hits, _ = beam_points(frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range,
+                                  usable, 0.0)
+        if self.config.match_thin_m > 0 and len(end):
+            keys = np.floor(end / self.config.match_thin_m).astype(np.int64)
+            _, first = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
+            keep = np.sort(first)
+            end, back = np.ascontiguousarray(end[keep]), np.ascontiguousarray(back[keep])
+        return end, back, hits
+
     def step(self, frame: Frame) -> SlamStep:
-        """Processes one frame: motion, and a filter update when the robot moved far enough."""
+        """Processes one frame: tracking, motion, and a filter update when the robot moved far enough."""
         cfg = self.config
         if self._lidar is None:
             self._lidar = frame.scan.spec
         odom = frame.odom.as_array()
         first = self.n_scans == 0
+        beams = self._beams(frame)
         if first:
             self.poses[:] = odom
+            tracked = odom.copy()
         else:
-            self.poses = sample_motion(self.poses, self._last_odom, odom, self._noise, self.rng)
             move = relative(self._last_odom, odom)
             self._linear_m += math.hypot(move[0], move[1])
             self._angular_rad += abs(move[2])
+            tracked = self._track(beams, odom, move)
+            if cfg.motion_from_tracking and cfg.track_every_scan:  # the scan-matched motion moves the particles
+                self.poses = sample_motion(self.poses, self._scan_online[-1], tracked, self._noise, self.rng)
+            else:
+                self.poses = sample_motion(self.poses, self._last_odom, odom, self._noise, self.rng)
         self._last_odom = odom
         updated = first or self._linear_m >= cfg.linear_update_m or self._angular_rad >= cfg.angular_update_rad
         resampled = False
         scores = None
         if updated:
-            resampled, scores = self._update(frame, first)
-        online = self._online_pose(frame, odom, updated)
+            resampled, scores = self._update(frame, first, beams, tracked)
+        online = self.poses[self.best_index].copy() if updated else tracked
         self._scan_online.append(online)
         self._scan_tracked.append(relative(self._history[self.n_updates - 1, self.best_index], online))
         self._scan_stamps.append(frame.stamp_ns)
@@ -191,44 +228,62 @@ class FastSlam:
             scores,
         )
 
-    def _online_pose(self, frame: Frame, odom: F64, updated: bool) -> F64:
+    def _track(self, beams: tuple[F64, F64, F64], odom: F64, move: F64) -> F64:
         """The best particle's pose at this scan as known online (see ``SlamConfig.track_every_scan``)."""
+        cfg = self.config
         best = self.best_index
-        if updated or not self._scan_online:
-            return self.poses[best].copy()
         from_update = compose(self._history[self.n_updates - 1, best], relative(self._update_odom[-1], odom))
-        if not self.config.track_every_scan:
+        if not cfg.track_every_scan:
             return from_update
         # Two starts: the previous scan's tracked pose moved by odometry (close, but may drift where the
         # geometry is degenerate) and gmapping's pose (no drift, but up to an interval of odometry error away).
-        # Both are hill-climbed; the better-scoring match is kept.
-        from_last = compose(self._scan_online[-1], relative(self._scan_odom[-1], odom))
-        lidar = frame.scan.spec
-        max_range, usable = self._ranges(lidar)
-        end_b, back_b = beam_points(frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range,
-                                    usable, math.sqrt(2.0) * self.config.resolution_m, self.config.lskip)
+        # Both are hill-climbed; the better-scoring match is kept.  When the wide search finds the first far
+        # from where odometry put it, it starts from there instead (odometry that is far off).
+        from_last = compose(self._scan_online[-1], move)
+        end_b, back_b, _ = beams
+        if cfg.wide_search and self._grid is not None:
+            found = wide_match(self._grid, from_last, end_b, cfg, motion_std(move, self._noise),
+                               math.hypot(move[0], move[1]), abs(float(move[2])))
+            if found is not None:  # the scan's best pose on the coarse field: a better start than odometry's
+                from_last = found[0]
+                self.n_wide_jumps += int(found[1])
         starts = np.stack([from_last, from_update])
-        matched = match_scans_to_map(self.maps, best, starts, [(end_b, back_b)] * 2, self.config)
-        scores, _ = score_poses(self.maps, best, matched, end_b, back_b, self.config)
+        matched = match_scans_to_map(self.maps, best, starts, [(end_b, back_b)] * 2, cfg)
+        scores, _ = score_poses(self.maps, best, matched, end_b, back_b, cfg)
         return matched[0] if scores[0] > 1.05 * scores[1] else matched[1]  # near-ties go to the drift-free start
 
-    def _update(self, frame: Frame, first: bool) -> tuple[bool, F64 | None]:
+    def _update(self, frame: Frame, first: bool, beams: tuple[F64, F64, F64], tracked: F64) -> tuple[bool, F64 | None]:
         cfg = self.config
-        lidar = frame.scan.spec
-        max_range, usable = self._ranges(lidar)
-        end_b, back_b = beam_points(
-            frame.scan.ranges_m,
-            lidar.angles_rad,
-            lidar.base_to_laser.as_array(),
-            max_range,
-            usable,
-            math.sqrt(2.0) * cfg.resolution_m,
-            cfg.lskip,
-        )
+        end_b, back_b, hits_b = beams
         scores = None
         if not first:
-            match = match_particles(self.maps, self.poses, end_b, back_b, cfg)
-            self.poses = match.poses
+            if cfg.motion_from_tracking and cfg.track_every_scan:
+                delta = relative(self._update_tracked[-1], tracked)
+            else:
+                delta = relative(self._update_odom[-1], self._last_odom)
+            best = self.best_index
+            nominal = compose(self._history[self.n_updates - 1], delta)  # (N, 3) noise-free predictions
+            sigma = motion_std(delta, self._noise)
+            found = None
+            if cfg.wide_search and self._grid is not None:
+                found = wide_match(self._grid, nominal[best], end_b, cfg, sigma, self._linear_m, self._angular_rad)
+            if cfg.proposal == "improved":
+                # every particle starts from its own prediction moved like the best one's onto the mode
+                start = nominal if found is None else compose(found[0], relative(nominal[best], nominal))
+                match = match_particles(self.maps, start, end_b, back_b, cfg)
+                cov = (proposal_covariance(self._grid, end_b, match.poses[best], sigma, cfg.proposal_beams)
+                       if self._grid is not None else np.diag(sigma**2))
+                draw = self.rng.multivariate_normal(np.zeros(3), cov, size=cfg.n_particles, method="cholesky")
+                self.poses = match.poses + draw
+                self.poses[:, 2] = (self.poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
+                self.n_wide_jumps += int(found is not None and found[1])
+            else:
+                if found is not None and (found[1] or cfg.wide_recentre):
+                    # the cloud moves so that the best particle's prediction lands on the mode
+                    self.poses = compose(found[0], relative(nominal[best], self.poses))
+                    self.n_wide_jumps += int(found[1])
+                match = match_particles(self.maps, self.poses, end_b, back_b, cfg)
+                self.poses = match.poses
             extra = match.log_likelihoods
             if self.extra_log_likelihood is not None:
                 extra = extra + np.asarray(self.extra_log_likelihood(self.poses, end_b), np.float64)
@@ -251,20 +306,46 @@ class FastSlam:
             self.maps.resample(idx)
             self.n_resamples += 1
             resampled = True
-        if not cfg.lskip:
-            hits_b = end_b
-        else:
-            hits_b, _ = beam_points(
-                frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range, usable, 0.0
-            )
         hits_w = compose(self.poses[:, None, :], np.concatenate([hits_b, np.zeros((len(hits_b), 1))], axis=1))
         self.maps.integrate(hits_w[..., 0], hits_w[..., 1])  # (N, M) end points of every particle
         self._update_odom.append(self._last_odom.copy())
         self._update_ranges.append(np.asarray(frame.scan.ranges_m, dtype=np.float32).copy())
+        self._update_hits.append(hits_b)
         self._linear_m = 0.0
         self._angular_rad = 0.0
         self.n_updates += 1
+        corrected = self.loops.add(hits_b, self._history[: self.n_updates, self.best_index])
+        if corrected is not None:
+            self._reanchor(corrected)
+        best = self.best_index
+        self._update_tracked.append(self.poses[best].copy())
+        if cfg.wide_search:
+            self._grid = tracking_grid(self.maps, best, self.poses[best], cfg)
         return resampled, scores
+
+    def _reanchor(self, corrected: F64) -> None:
+        """Puts every particle on the solved trajectory (K, 3): the ancestry of all becomes the solution, each
+        particle keeps its offset from the best at the newest update, and the maps are rebuilt on it (unless no
+        update moved by more than a quarter cell and 0.1°: then the maps stand as they are)."""
+        k = self.n_updates
+        best = self.best_index
+        change = corrected - self._history[:k, best]
+        moved = (np.hypot(change[:, 0], change[:, 1]).max() > 0.25 * self.config.resolution_m
+                 or np.abs((change[:, 2] + np.pi) % (2 * np.pi) - np.pi).max() > math.radians(0.1))
+        offsets = relative(self._history[k - 1, best], self._history[k - 1])  # (N, 3)
+        self._history[: k - 1] = corrected[: k - 1, None, :]
+        self.poses = compose(corrected[k - 1], offsets)
+        self._history[k - 1] = self.poses
+        if not moved:
+            return
+        counts = [len(h) for h in self._update_hits]
+        node = np.repeat(np.arange(k), counts)
+        hits = np.concatenate(self._update_hits) if counts else np.zeros((0, 2))
+        c, s = np.cos(corrected[node, 2]), np.sin(corrected[node, 2])
+        x = corrected[node, 0] + c * hits[:, 0] - s * hits[:, 1]
+        y = corrected[node, 1] + s * hits[:, 0] + c * hits[:, 1]
+        self.maps.rebuild_shared(x, y)
+        self.n_loop_corrections += 1
 
     def update_poses(self, particle: int | None = None) -> F64:
         """Corrected poses (K, 3) at the K filter updates along a particle's ancestry (default: the best)."""
@@ -344,12 +425,24 @@ class FastSlam:
         if self._lidar is None or not self.n_updates:
             raise RuntimeError("no scan processed yet")
         lidar = self._lidar
-        max_range, usable = self._ranges(lidar)
+        max_range, usable = self.beam_limits()
         laser = compose(self.update_poses(particle), lidar.base_to_laser.as_array())
         spec, hits, passes = ray_cast_counts(
             laser, np.stack(self._update_ranges), lidar.angles_rad, max_range, usable, self.config.resolution_m
         )
         return counts_to_grid(spec, hits, passes, self.config.occ_thresh)
+
+    def best_map_strips(self, particle: int | None = None, strip_cells: int = 512) -> tuple[GridSpec, Iterator[
+            tuple[int, NDArray[np.uint16], NDArray[np.uint16]]]]:
+        """:meth:`best_map` as hit / pass count strips from the top down (bounded memory on large maps; see
+        :func:`mcnkit.slam.maps.ray_cast_strips`)."""
+        if self._lidar is None or not self.n_updates:
+            raise RuntimeError("no scan processed yet")
+        lidar = self._lidar
+        max_range, usable = self.beam_limits()
+        laser = compose(self.update_poses(particle), lidar.base_to_laser.as_array())
+        return ray_cast_strips(laser, np.stack(self._update_ranges), lidar.angles_rad, max_range, usable,
+                               self.config.resolution_m, strip_cells)
 
     def best_ternary(self, particle: int | None = None) -> TernaryMap:
         """:meth:`best_map` in the paper's ternary encoding (occupied above ``occ_thresh``)."""

@@ -16,6 +16,7 @@ subtracts a scan) serves it and :class:`~mcnkit.slam.lineage.LineageMap`.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numba
 import numpy as np
@@ -23,7 +24,7 @@ from numpy.typing import NDArray
 
 from mcnkit.types import GridSpec
 
-__all__ = ["TiledHitMaps", "cast_scan", "cell_of", "ray_cast_counts", "scan_end_points"]
+__all__ = ["TiledHitMaps", "cast_scan", "cell_of", "ray_cast_counts", "ray_cast_strips", "scan_end_points"]
 
 F64 = NDArray[np.float64]
 I32 = NDArray[np.int32]
@@ -99,6 +100,35 @@ def _integrate(
             mean_x[c] += np.float32((x - ix * res - mean_x[c]) / n)
             mean_y[c] += np.float32((y - iy * res - mean_y[c]) / n)
     return n_free
+
+
+@numba.njit(cache=True)
+def _hit_points(
+    table: I32, tx0: int, ty0: int, shift: int, count: I32, mean_x: NDArray[np.float32], mean_y: NDArray[np.float32],
+    p: int, tx_lo: int, ty_lo: int, tx_hi: int, ty_hi: int, res: float,
+) -> F64:
+    """Mean hit points (K, 2) of particle ``p``'s cells with hits in tiles tx_lo..tx_hi × ty_lo..ty_hi."""
+    side = 1 << shift
+    n = 0
+    for pass_ in range(2):
+        if pass_ == 1:
+            out = np.empty((n, 2))
+            n = 0
+        for ty in range(max(ty_lo, ty0), min(ty_hi, ty0 + table.shape[1] - 1) + 1):
+            for tx in range(max(tx_lo, tx0), min(tx_hi, tx0 + table.shape[2] - 1) + 1):
+                t = table[p, ty - ty0, tx - tx0]
+                if t < 0:
+                    continue
+                base = t << (2 * shift)
+                for cy in range(side):
+                    for cx in range(side):
+                        c = base + (cy << shift) + cx
+                        if count[c] > 0:
+                            if pass_ == 1:
+                                out[n, 0] = (tx * side + cx) * res + mean_x[c]
+                                out[n, 1] = (ty * side + cy) * res + mean_y[c]
+                            n += 1
+    return out
 
 
 class TiledHitMaps:
@@ -213,6 +243,35 @@ class TiledHitMaps:
             self.resolution_m,
         )
 
+    def hit_points(self, p: int, x_min_m: float, y_min_m: float, x_max_m: float, y_max_m: float) -> F64:
+        """The mean hit points (K, 2) of particle ``p``'s cells in (the tiles overlapping) a box, in metres."""
+        span = self.resolution_m * self.tile_cells
+        if self.table.shape[1] == 0:
+            return np.zeros((0, 2))
+        return _hit_points(self.table, self.tx0, self.ty0, self.shift, self.count, self.mean_x, self.mean_y, int(p),
+                           math.floor(x_min_m / span), math.floor(y_min_m / span), math.floor(x_max_m / span),
+                           math.floor(y_max_m / span), self.resolution_m)
+
+    def rebuild_shared(self, end_x: F64, end_y: F64) -> None:
+        """Replaces every particle's map by one map of the end points (M,) in metres, shared by all.
+
+        After a loop closure moved the trajectory the particles' maps are rebuilt on it: one pool of tiles,
+        referenced by every particle (copy on write keeps later writes apart)."""
+        n = self.n_particles
+        # the old pool goes first: the rebuilt one takes its place instead of adding to the peak
+        self.table = np.full((n, 0, 0), -1, dtype=np.int32)
+        self.count = np.zeros(0, np.int32)
+        self.mean_x = self.mean_y = np.zeros(0, np.float32)
+        self.refcount = self.free_stack = np.zeros(0, np.int32)
+        one = TiledHitMaps(1, self.resolution_m, self.tile_cells)
+        one.enlarge_tiles = self.enlarge_tiles
+        one.integrate(np.asarray(end_x, np.float64)[None, :], np.asarray(end_y, np.float64)[None, :])
+        self.table = np.ascontiguousarray(np.repeat(one.table, n, axis=0))
+        self.tx0, self.ty0 = one.tx0, one.ty0
+        self.count, self.mean_x, self.mean_y = one.count, one.mean_x, one.mean_y
+        self.refcount = (one.refcount * n).astype(np.int32)
+        self.free_stack, self.n_free = one.free_stack, one.n_free
+
     def resample(self, indices: NDArray[np.integer]) -> None:
         """Particle k becomes a copy of particle ``indices[k]``: tables are copied, tiles shared."""
         self.table = np.ascontiguousarray(self.table[np.asarray(indices)])
@@ -318,6 +377,105 @@ def cast_scan(
             ranks[y1, x1] = _rank(hits[y1, x1], hits[y1, x1] + passes[y1, x1], occ_thresh)
 
 
+@numba.njit(cache=True)
+def _cast_counts(hits: U16, passes: U16, ix0: int, iy0: int, res: float, lx: float, ly: float, ex: F64, ey: F64,
+                 is_hit: NDArray[np.bool_]) -> None:
+    """:func:`cast_scan` for the output map: saturating uint16 counts, no ranks (half the memory of int32)."""
+    x0 = int(math.floor(lx / res)) - ix0
+    y0 = int(math.floor(ly / res)) - iy0
+    for k in range(ex.shape[0]):
+        x1 = int(math.floor(ex[k] / res)) - ix0
+        y1 = int(math.floor(ey[k] / res)) - iy0
+        dx, dy = abs(x1 - x0), -abs(y1 - y0)
+        stx = 1 if x0 < x1 else -1
+        sty = 1 if y0 < y1 else -1
+        err = dx + dy
+        x, y = x0, y0
+        while x != x1 or y != y1:
+            if passes[y, x] < 65535:
+                passes[y, x] += 1
+            e2 = 2 * err
+            if e2 >= dy:
+                err += dy
+                x += stx
+            if e2 <= dx:
+                err += dx
+                y += sty
+        if is_hit[k] and hits[y1, x1] < 65535:
+            hits[y1, x1] += 1
+
+
+@numba.njit(cache=True)
+def _cast_strip(hits: U16, passes: U16, ix0: int, row0: int, res: float, lx: float, ly: float, ex: F64, ey: F64,
+                is_hit: NDArray[np.bool_], iy_lo: int) -> None:
+    """:func:`_cast_counts` into a strip holding global cell rows ``row0 .. row0 + H - 1`` only (``iy_lo``: the
+    grid's first cell row); cells outside the strip are walked over but not stored."""
+    h = hits.shape[0]
+    x0 = int(math.floor(lx / res)) - ix0
+    y0 = int(math.floor(ly / res)) - iy_lo
+    for k in range(ex.shape[0]):
+        x1 = int(math.floor(ex[k] / res)) - ix0
+        y1 = int(math.floor(ey[k] / res)) - iy_lo
+        if max(y0, y1) < row0 or min(y0, y1) >= row0 + h:
+            continue
+        dx, dy = abs(x1 - x0), -abs(y1 - y0)
+        stx = 1 if x0 < x1 else -1
+        sty = 1 if y0 < y1 else -1
+        err = dx + dy
+        x, y = x0, y0
+        while x != x1 or y != y1:
+            r = y - row0
+            if 0 <= r < h and passes[r, x] < 65535:
+                passes[r, x] += 1
+            e2 = 2 * err
+            if e2 >= dy:
+                err += dy
+                x += stx
+            if e2 <= dx:
+                err += dx
+                y += sty
+        r = y1 - row0
+        if is_hit[k] and 0 <= r < h and hits[r, x1] < 65535:
+            hits[r, x1] += 1
+
+
+def ray_cast_strips(
+    laser_poses: F64,
+    ranges_m: NDArray[np.floating],
+    angles_rad: F64,
+    max_range_m: float,
+    max_usable_range_m: float,
+    resolution_m: float,
+    strip_cells: int = 512,
+    margin_m: float = 1.0,
+) -> tuple[GridSpec, Iterator[tuple[int, U16, U16]]]:
+    """:func:`ray_cast_counts` in horizontal strips, from the top (highest y) down: the grid, and an iterator of
+    ``(first row, hits, passes)`` with at most ``strip_cells`` rows each.  Memory stays that of one strip
+    whatever the map's size (a campus-sized map is ~25 M cells); every strip walks every ray once."""
+    r = np.asarray(ranges_m)
+    lasers = np.asarray(laser_poses, np.float64)
+    ends = [scan_end_points(lx, ly, lt, r[k], angles_rad, max_range_m, max_usable_range_m)
+            for k, (lx, ly, lt) in enumerate(lasers)]
+    allx = np.concatenate([e[0] for e in ends] + [lasers[:, 0]])
+    ally = np.concatenate([e[1] for e in ends] + [lasers[:, 1]])
+    ix0 = math.floor((allx.min() - margin_m) / resolution_m)
+    iy0 = math.floor((ally.min() - margin_m) / resolution_m)
+    width = math.floor((allx.max() + margin_m) / resolution_m) - ix0 + 1
+    height = math.floor((ally.max() + margin_m) / resolution_m) - iy0 + 1
+    spec = GridSpec(resolution_m, ix0 * resolution_m, iy0 * resolution_m, width, height)
+
+    def strips() -> Iterator[tuple[int, U16, U16]]:
+        for top in range(height, 0, -strip_cells):
+            row0 = max(0, top - strip_cells)
+            hits = np.zeros((top - row0, width), np.uint16)
+            passes = np.zeros((top - row0, width), np.uint16)
+            for (lx, ly, _lt), (ex, ey, hit) in zip(lasers, ends, strict=True):
+                _cast_strip(hits, passes, ix0, row0, resolution_m, lx, ly, ex, ey, hit, iy0)
+            yield row0, hits, passes
+
+    return spec, strips()
+
+
 def ray_cast_counts(
     laser_poses: F64,
     ranges_m: NDArray[np.floating],
@@ -330,7 +488,8 @@ def ray_cast_counts(
     """Hit and pass counts (uint16, saturating) of scans (K, M) from laser poses (K, 3), on a grid holding all.
 
     Beams that are not finite, zero, or longer than ``max_range_m`` are skipped; beams longer than
-    ``max_usable_range_m`` clear space up to that range and mark no hit (gmapping's rule).
+    ``max_usable_range_m`` clear space up to that range and mark no hit (gmapping's rule).  The grid covers the
+    lasers and their (clipped) end points, so its size is bounded by the path and the usable range.
     """
     r = np.asarray(ranges_m)
     lasers = np.asarray(laser_poses, np.float64)
@@ -343,10 +502,8 @@ def ray_cast_counts(
     width = math.floor((allx.max() + margin_m) / resolution_m) - ix0 + 1
     height = math.floor((ally.max() + margin_m) / resolution_m) - iy0 + 1
     spec = GridSpec(resolution_m, ix0 * resolution_m, iy0 * resolution_m, width, height)
-    hits = np.zeros(spec.shape, np.int32)
-    passes = np.zeros(spec.shape, np.int32)
-    ranks = np.zeros(spec.shape, np.int8)  # kept by the kernel; not needed here
+    hits = np.zeros(spec.shape, np.uint16)
+    passes = np.zeros(spec.shape, np.uint16)
     for (lx, ly, _lt), (ex, ey, hit) in zip(lasers, ends, strict=True):
-        cast_scan(hits, passes, ranks, ix0, iy0, resolution_m, lx, ly, ex, ey, hit, 1, 0.5)
-    # saturating uint16 counts: half the memory of int32 in what is kept
-    return spec, np.minimum(hits, 65535).astype(np.uint16), np.minimum(passes, 65535).astype(np.uint16)
+        _cast_counts(hits, passes, ix0, iy0, resolution_m, lx, ly, ex, ey, hit)
+    return spec, hits, passes

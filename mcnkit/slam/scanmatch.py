@@ -311,7 +311,7 @@ def _beams(end_xy: F64, back_xy: F64) -> Beams:
 
 
 def match_particles(
-    maps: TiledHitMaps, poses: F64, end_xy: F64, back_xy: F64, cfg: SlamConfig, reach_tiles: int = 2
+    maps: TiledHitMaps, poses: F64, end_xy: F64, back_xy: F64, cfg: SlamConfig, reach_m: float = 0.8
 ) -> MatchResult:
     """Hill-climbs every particle's pose (N, 3) against its own map; beams (M, 2) in the base frame.
 
@@ -321,6 +321,7 @@ def match_particles(
     """
     poses = np.ascontiguousarray(poses, dtype=np.float64)
     use_window = len(end_xy) > 0 and not cfg.free_check and cfg.kernel_size == 1
+    reach_tiles = max(1, round(reach_m / (maps.resolution_m * maps.tile_cells)))
     win = window(end_points(poses, end_xy), maps.resolution_m, maps.shift, reach_tiles) if use_window else no_window()
     out, scores, logliks = _match_all(
         _args(maps),

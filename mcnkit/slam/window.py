@@ -15,7 +15,7 @@ from scipy import ndimage
 
 from mcnkit.geometry import compose
 
-__all__ = ["MapArrays", "Window", "end_points", "fill_window", "no_window", "window"]
+__all__ = ["WINDOW_RANGE_M", "MapArrays", "Window", "end_points", "fill_window", "no_window", "window"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -78,7 +78,15 @@ def window(points_xy: F64, res: float, shift: int, reach_tiles: int) -> Window:
     return wm, usable.astype(np.uint8), tiles_rc, int(lo[0]) * side, int(lo[1]) * side
 
 
-def end_points(poses: F64, end_xy: F64) -> F64:
-    """World end points (N·M, 2) of beams (M, 2) seen from base poses (N, 3)."""
-    ends = compose(poses[:, None, :], np.concatenate([end_xy, np.zeros((len(end_xy), 1))], axis=1))
+WINDOW_RANGE_M = 20.0
+"""Only end points this close to the robot shape the dense window (a long-range scanner's far returns would
+make it hundreds of megabytes); farther ones are looked up in the tiles."""
+
+
+def end_points(poses: F64, end_xy: F64, max_range_m: float = WINDOW_RANGE_M) -> F64:
+    """World end points (N·M', 2) of the beams (M, 2) within ``max_range_m`` of the base, seen from poses (N, 3)."""
+    near = end_xy[np.hypot(end_xy[:, 0], end_xy[:, 1]) <= max_range_m]
+    if len(near) == 0:
+        near = end_xy[:1]
+    ends = compose(poses[:, None, :], np.concatenate([near, np.zeros((len(near), 1))], axis=1))
     return ends[..., :2].reshape(-1, 2)

@@ -79,17 +79,21 @@ def test_scan_stamps_going_backwards_are_skipped_with_a_count(tmp_path: Path, fr
     assert [f.stamp_ns for f in back] == sorted(f.stamp_ns for f in back)
 
 
-def test_carmen_lines_out_of_time_order_are_sorted_with_a_warning(tmp_path: Path) -> None:
+def test_carmen_lines_out_of_time_order_stay_in_log_order_restamped(tmp_path: Path) -> None:
     ranges = " ".join(["1.0"] * 181)
-    lines = [f"FLASER 181 {ranges} 0 0 0 {x} 0 0 {t} host {t}" for x, t in [(0, "1.0"), (1, "3.0"), (2, "2.0")]]
+    lines = [f"FLASER 181 {ranges} 0 0 0 {x} 0 0 {t} host {t}" for x, t in [(0, "1.0"), (1, "3.0"), (2, "2.0"), (3, "4.0")]]
     lines.insert(1, "FLASER 181 1.0 garbage")
     path = tmp_path / "run.clf.gz"
     path.write_bytes(gzip.compress("\n".join(lines).encode()))
     with pytest.warns(LogWarning) as record:
         log = open_log(path)
     messages = " ".join(str(w.message) for w in record)
-    assert "malformed FLASER line skipped" in messages and "sorted by stamp" in messages
-    assert [f.odom.x_m for f in log.frames()] == [0.0, 2.0, 1.0]
+    assert "malformed line(s) skipped: 1 FLASER (first at line 2)" in messages
+    assert "1 earlier than the scan before; kept in log order" in messages
+    frames = list(log.frames())
+    assert [f.odom.x_m for f in frames] == [0.0, 1.0, 2.0, 3.0]
+    assert [f.stamp_ns for f in frames] == [1_000_000_000, 3_000_000_000, 3_500_000_000, 4_000_000_000]
+    assert log.laser_lines == 5
 
 
 def test_a_bag_cut_in_the_middle_reads_its_whole_chunks(tmp_path: Path) -> None:

@@ -164,3 +164,25 @@ def test_scans_without_returns_and_a_mounted_laser_do_not_break_the_filter() -> 
     assert slam.n_updates >= 3
     assert np.abs(slam.trajectory(mode="matched").poses[:, 1] - 1.5).max() < 0.1
     assert slam.best_map().log_odds.any()
+
+
+def test_odometry_that_says_forward_while_the_robot_backs_up_is_caught_by_the_wide_search() -> None:
+    # FR079 does this around scan 840: the wheels report 0.1 m forward per scan while the scans show the robot
+    # reversing.  Here the robot drives 3 m east along the room's south side, then backs up 1.5 m; the
+    # odometry reports the backing up as driving on.
+    rng = np.random.default_rng(3)
+    truth = [np.array([2.0 + 0.1 * k, 1.5, 0.0]) for k in range(31)]
+    truth += [np.array([5.0 - 0.1 * k, 1.5, 0.0]) for k in range(1, 16)]
+    odom = [truth[0]]
+    for _ in range(1, len(truth)):
+        odom.append(compose(odom[-1], np.array([0.1, 0.0, 0.0])))  # always "forward"
+    frames = [Frame(int(k * 1e8), Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))
+              for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
+    errors = {}
+    for wide in (True, False):
+        slam = FastSlam(SlamConfig(n_particles=10, wide_search=wide, loop_closure=False), np.random.default_rng(0))
+        for f in frames:
+            slam.step(f)
+        est = slam.trajectory().poses
+        errors[wide] = float(np.hypot(*(est[-1, :2] - truth[-1][:2])))
+    assert errors[True] < 0.2 < errors[False]

@@ -60,3 +60,20 @@ def test_counts_to_grid_uses_the_occupancy_threshold() -> None:
     grid = counts_to_grid(GridSpec(0.1, 0.0, 0.0, 4, 1), hits, passes, occ_thresh=0.25)
     lo = grid.log_odds[0]
     assert lo[0] == 0 and lo[1] > 0 and lo[2] < 0 and lo[3] < 0
+
+
+def test_the_map_clears_space_only_up_to_the_map_range_and_long_returns_mark_no_hit() -> None:
+    from mcnkit.slam import SlamConfig, ray_cast_counts
+    from mcnkit.types import LidarSpec
+
+    one_degree = LidarSpec(-np.pi / 2, np.pi / 180, 181, 0.0, 50.0)
+    half_degree = LidarSpec(-np.pi / 2, np.pi / 360, 361, 0.0, 81.9)
+    cfg = SlamConfig()
+    assert cfg.map_range(one_degree) == pytest.approx(4 * 0.05 / (np.pi / 180))  # 11.5 m: beams 4 cells apart
+    assert cfg.map_range(half_degree) == pytest.approx(4 * 0.05 / (np.pi / 360))
+    assert SlamConfig(map_range_m=100.0).map_range(one_degree) == pytest.approx(49.99)  # never beyond the scanner
+    # one beam along +x hitting a wall at 30 m, mapped with a 10 m map range: free to 10 m, no hit at 30 m
+    spec, hits, passes = ray_cast_counts(np.zeros((1, 3)), np.array([[30.0]]), np.zeros(1), 49.99, 10.0, 0.05)
+    row, col = spec.world_to_cell(np.array([9.0, 0.01]))
+    assert passes[row, col] == 1 and hits.sum() == 0
+    assert spec.origin_x_m + spec.width * spec.resolution_m < 12.0  # the grid stops near the map range

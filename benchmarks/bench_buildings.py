@@ -1,0 +1,255 @@
+"""The building benchmark (issue 14): the default ``mcnkit slam`` on every real building, three seeds each.
+
+For every log of ``../shared/data/reallab`` with a reference (the six Radish "corrected" logs, the Intel lab,
+MIT CSAIL) and every seed, runs the documented command in its own process::
+
+    mcnkit slam LOG --particles 30 --resolution 0.05 --seed S --out DIR --no-progress
+
+and scores ``trajectory.tum``: ATE RMSE / max against the log's corrected poses after a rigid 2-D alignment,
+matched by stamp (by scan order where the log's stamps were degenerate and had to be rebuilt: the reference
+then carries the same rebuilt stamps), and the Kümmerle relations error where a relations file exists (MIT
+CSAIL).  CPU seconds and peak RSS are the child process's own (start-up and file writing included).
+
+Writes ``benchmarks/results/buildings/buildings.json``, ``buildings.md``, one ``NAME.png`` per building (its
+seed-0 map with the estimate in green and the aligned reference in red) and ``contact_sheet.png``.
+
+    .venv/bin/python benchmarks/bench_buildings.py [--seeds 0 1 2] [--only aces fr079] [--jobs 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "results" / "buildings"
+
+# name -> (log relative to the data folder, relations file or None)
+BUILDINGS = {
+    "aces": ("reallab/radish/aces-corrected.log.gz", None),
+    "fr079": ("reallab/radish/freiburg-079-corrected.log.gz", None),
+    "fr101": ("reallab/radish/freiburg-101-corrected.log.gz", None),
+    "fhw": ("reallab/radish/fhw-corrected.log.gz", None),
+    "acapulco": ("reallab/radish/acapulco-corrected.log.gz", None),
+    "intel": ("reallab/intel/intel-corrected.log.gz", None),
+    "campus": ("reallab/radish/freiburg-campus-corrected.log.gz", None),
+    "mit-csail": ("reallab/mit-csail/mit-csail.clf", "reallab/mit-csail/mit-csail.relations"),
+}
+# the issue's bars: ATE RMSE (m) and CPU (s) per log; MIT: relations error and CPU; campus: ATE by order, CPU, RSS
+TARGETS = {"ate_m": 0.15, "cpu_s": 90.0, "mit_relations_m": 0.045, "mit_cpu_s": 30.0,
+           "campus_ate_m": 0.5, "campus_cpu_s": 120.0, "campus_rss_mb": 500.0}
+
+
+@dataclass(frozen=True)
+class Run:
+    """One ``mcnkit slam`` run and its scores."""
+
+    building: str
+    seed: int
+    scans: int
+    filter_updates: int
+    loop_closures: int
+    cpu_s: float
+    wall_s: float
+    peak_rss_mb: float
+    ate_rmse_m: float | None
+    ate_max_m: float | None
+    matched_by: str | None
+    relations_m: float | None
+    relations_deg: float | None
+
+
+def _data_dir(arg: str | None) -> Path:
+    if arg:
+        return Path(arg)
+    env = os.environ.get("MCNKIT_SHARED_DATA")
+    return Path(env) if env else ROOT.parent / "shared" / "data"
+
+
+def _run(name: str, seed: int, data: Path, out: Path) -> Run:
+    from mcnkit.io import open_log
+    from mcnkit.metrics import absolute_trajectory_error, read_relations, read_tum, relations_error
+    from mcnkit.types import Trajectory
+
+    log_rel, rel_rel = BUILDINGS[name]
+    log = data / log_rel
+    cmd = [sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "30", "--resolution", "0.05",
+           "--seed", str(seed), "--out", str(out), "--no-progress"]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env={**os.environ,
+                                                                                         "RERUN_ANALYTICS": "0"})
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    err = proc.stderr.read().decode() if proc.stderr else ""
+    if status != 0:
+        raise RuntimeError(f"{name} seed {seed}: mcnkit slam failed: {err.strip().splitlines()[-1:]}")
+    summary = json.loads((out / "summary.json").read_text())
+    est = read_tum(out / "trajectory.tum")
+    ate = ate_max = rel_t = rel_r = None
+    matched_by = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with open_log(log) as reader:
+            gt = reader.ground_truth()
+    if gt is not None:
+        degenerate = any("scan stamps" in str(w.message) and "log order" in str(w.message) and "every" in str(w.message)
+                         for w in caught)
+        if degenerate:  # rebuilt stamps: pair by scan order (the same thing, said plainly)
+            idx = np.arange(min(len(est), len(gt)), dtype=np.int64) * 1_000_000_000
+            res = absolute_trajectory_error(Trajectory(idx, est.poses[: len(idx)]), Trajectory(idx, gt.poses[: len(idx)]))
+            matched_by = "scan order"
+        else:
+            res = absolute_trajectory_error(est, gt)
+            matched_by = "stamp"
+        ate, ate_max = res.rmse_m, res.max_m
+    if rel_rel is not None:
+        r = relations_error(est, read_relations(data / rel_rel))
+        rel_t, rel_r = r.translation_mean_m, r.rotation_mean_deg
+    return Run(name, seed, summary["scans"], summary["filter_updates"], summary.get("loop_closures", 0),
+               usage.ru_utime + usage.ru_stime, wall, usage.ru_maxrss / 1024.0, ate, ate_max, matched_by, rel_t, rel_r)
+
+
+def _load_pgm(path: Path) -> np.ndarray:
+    data = path.read_bytes()
+    parts = data.split(b"\n", 3)
+    w, h = (int(v) for v in parts[1].split())
+    return np.frombuffer(parts[3], np.uint8, count=w * h).reshape(h, w)
+
+
+def _draw(ax: object, name: str, out: Path, data: Path) -> None:
+    """The seed-0 map of a building with its estimate (green) and the aligned reference (red)."""
+    from mcnkit.io import open_log
+    from mcnkit.metrics import read_tum
+
+    img = _load_pgm(out / "map.pgm")
+    meta = dict(line.split(": ", 1) for line in (out / "map.yaml").read_text().splitlines() if ": " in line)
+    res = float(meta["resolution"])
+    ox, oy = (float(v) for v in meta["origin"].strip("[]").split(",")[:2])
+    h, w = img.shape
+    ax.imshow(img, cmap="gray", extent=(ox, ox + w * res, oy, oy + h * res), interpolation="nearest")  # type: ignore[attr-defined]
+    est = read_tum(out / "trajectory.tum").poses
+    ax.plot(est[:, 0], est[:, 1], "-", color="tab:green", lw=0.8, label="estimate")  # type: ignore[attr-defined]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with open_log(data / BUILDINGS[name][0]) as reader:
+            gt = reader.ground_truth()
+    if gt is not None and len(gt) == len(est):
+        a, b = gt.poses[:, :2], est[:, :2]  # align the reference onto the estimate (rigid, least squares)
+        ca, cb = a.mean(0), b.mean(0)
+        hh = (a - ca).T @ (b - cb)
+        ang = np.arctan2(hh[0, 1] - hh[1, 0], hh[0, 0] + hh[1, 1])
+        rot = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
+        al = (a - ca) @ rot.T + cb
+        ax.plot(al[:, 0], al[:, 1], "-", color="tab:red", lw=0.5, label="reference")  # type: ignore[attr-defined]
+    ax.set_title(name)  # type: ignore[attr-defined]
+    ax.set_aspect("equal")  # type: ignore[attr-defined]
+    ax.tick_params(labelsize=6)  # type: ignore[attr-defined]
+
+
+def _table(runs: list[Run]) -> tuple[str, dict[str, dict[str, object]]]:
+    lines = ["| building | ATE RMSE (seeds) | ATE max | relations | CPU s | peak RSS MB | loops | matched by | verdict |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    verdicts: dict[str, dict[str, object]] = {}
+    for name in BUILDINGS:
+        rs = [r for r in runs if r.building == name]
+        if not rs:
+            continue
+        ates = [r.ate_rmse_m for r in rs if r.ate_rmse_m is not None]
+        cpu = max(r.cpu_s for r in rs)
+        rss = max(r.peak_rss_mb for r in rs)
+        rel = [r.relations_m for r in rs if r.relations_m is not None]
+        if name == "mit-csail":
+            ok = bool(rel) and max(rel) <= TARGETS["mit_relations_m"] and cpu <= TARGETS["mit_cpu_s"]
+        elif name == "campus":
+            ok = bool(ates) and max(ates) <= TARGETS["campus_ate_m"] and cpu <= TARGETS["campus_cpu_s"] \
+                and rss <= TARGETS["campus_rss_mb"]
+        else:
+            ok = bool(ates) and max(ates) <= TARGETS["ate_m"] and cpu <= TARGETS["cpu_s"]
+        verdicts[name] = {"meets_target": ok, "worst_ate_m": max(ates) if ates else None, "worst_cpu_s": cpu,
+                          "worst_rss_mb": rss, "worst_relations_m": max(rel) if rel else None}
+        fmt = lambda v: f"{v:.3f}" if v is not None else "–"  # noqa: E731
+        lines.append(
+            f"| {name} | {' / '.join(fmt(a) for a in ates) or '–'} | "
+            f"{' / '.join(fmt(r.ate_max_m) for r in rs) if ates else '–'} | "
+            f"{' / '.join(fmt(v) for v in rel) or '–'} | {' / '.join(f'{r.cpu_s:.0f}' for r in rs)} | "
+            f"{' / '.join(f'{r.peak_rss_mb:.0f}' for r in rs)} | {' / '.join(str(r.loop_closures) for r in rs)} | "
+            f"{rs[0].matched_by or '–'} | {'meets' if ok else 'misses'} |"
+        )
+    return "\n".join(lines), verdicts
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--only", nargs="+", choices=list(BUILDINGS), help="a subset of the buildings")
+    parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
+    parser.add_argument("--jobs", type=int, default=2, help="runs in parallel (default 2: this machine's cores)")
+    parser.add_argument("--out", type=Path, default=OUT)
+    args = parser.parse_args()
+    data = _data_dir(args.data)
+    names = args.only or list(BUILDINGS)
+    args.out.mkdir(parents=True, exist_ok=True)
+    jobs = [(n, s) for n in names for s in args.seeds]
+    with tempfile.TemporaryDirectory() as tmp:
+        outs = {(n, s): Path(tmp) / f"{n}-{s}" for n, s in jobs}
+
+        def one(job: tuple[str, int]) -> Run:
+            run = _run(job[0], job[1], data, outs[job])
+            ate = f"ATE {run.ate_rmse_m:.3f} m (max {run.ate_max_m:.2f})" if run.ate_rmse_m is not None else ""
+            rel = f"relations {run.relations_m:.4f} m" if run.relations_m is not None else ""
+            print(f"{job[0]:>10} seed {job[1]}: {ate}{rel}  CPU {run.cpu_s:.1f} s  peak RSS {run.peak_rss_mb:.0f} MB  "
+                  f"{run.loop_closures} loops", flush=True)
+            return run
+
+        with ThreadPoolExecutor(max(1, args.jobs)) as pool:
+            runs = list(pool.map(one, jobs))
+        import matplotlib
+
+        matplotlib.use("Agg")  # a script's own choice: files only
+        import matplotlib.pyplot as plt
+
+        seed0 = args.seeds[0]
+        cols = 4
+        rows = (len(names) + cols - 1) // cols
+        sheet, axes = plt.subplots(rows, cols, figsize=(5 * cols, 5 * rows))
+        for ax in np.atleast_1d(axes).ravel()[len(names):]:
+            ax.axis("off")
+        for ax, name in zip(np.atleast_1d(axes).ravel(), names, strict=False):
+            _draw(ax, name, outs[(name, seed0)], data)
+            single, sax = plt.subplots(figsize=(10, 10))
+            _draw(sax, name, outs[(name, seed0)], data)
+            sax.legend(loc="lower right", fontsize=8)
+            single.savefig(args.out / f"{name}.png", dpi=110, bbox_inches="tight")
+            plt.close(single)
+        sheet.suptitle(f"mcnkit slam, default configuration, seed {seed0}: estimate (green), reference (red)")
+        sheet.savefig(args.out / "contact_sheet.png", dpi=90, bbox_inches="tight")
+        plt.close(sheet)
+    table, verdicts = _table(runs)
+    print(table)
+    (args.out / "buildings.md").write_text(
+        "# Building benchmark (`benchmarks/bench_buildings.py`)\n\n"
+        f"Targets: ATE ≤ {TARGETS['ate_m']} m and CPU ≤ {TARGETS['cpu_s']:.0f} s per log; MIT CSAIL relations "
+        f"≤ {TARGETS['mit_relations_m']} m, CPU ≤ {TARGETS['mit_cpu_s']:.0f} s; Freiburg campus ATE ≤ "
+        f"{TARGETS['campus_ate_m']} m, CPU ≤ {TARGETS['campus_cpu_s']:.0f} s, peak RSS ≤ {TARGETS['campus_rss_mb']:.0f} MB."
+        f" Seeds {', '.join(map(str, args.seeds))}.\n\n{table}\n"
+    )
+    (args.out / "buildings.json").write_text(json.dumps(
+        {"command": "mcnkit slam LOG --particles 30 --resolution 0.05 --seed S --out DIR --no-progress",
+         "seeds": args.seeds, "targets": TARGETS, "verdicts": verdicts, "runs": [asdict(r) for r in runs]},
+        indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

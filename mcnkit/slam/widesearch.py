@@ -1,0 +1,82 @@
+"""Catching odometry that is far off: a wide branch-and-bound search before the particles' hill climbing.
+
+gmapping's proposal hill-climbs each particle from its odometry-predicted pose: it recovers errors of a few
+centimetres and degrees, which is what the motion model spreads the particles over.  Real logs hold worse:
+wheels that slip, a robot pushed, odometry that says *forward* while the scans show the robot backing up
+(FR079, around scan 840: 1.3 m off within ten scans), or 10-15° heading errors between two kept scans of a
+sparse log.  Then every particle starts outside the matcher's basin and the map tears.
+
+:func:`wide_match` searches the best particle's map around its predicted pose over a window that grows with
+the odometry step (:class:`~mcnkit.slam.SlamConfig` ``wide_*`` fields), exactly, by branch and bound on a coarse
+likelihood field (:mod:`mcnkit.slam.correlative`).  It proposes a jump only when the wide optimum explains the
+scan clearly better than the best pose near the prediction (``wide_jump_ratio``): where both explain it about
+equally well — along a corridor, whose walls fit anywhere along its axis — the odometry keeps the say; and it
+looks wide at all only when the region the motion model allows explains little of the scan (``wide_max_near_score``):
+a scan that fits where the odometry put it is never moved to a look-alike place farther away.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.slam.config import SlamConfig
+from mcnkit.slam.correlative import LikelihoodGrid, likelihood_grid, match_scan, thin_points
+from mcnkit.slam.maps import TiledHitMaps
+
+__all__ = ["tracking_grid", "wide_match", "wide_window"]
+
+F64 = NDArray[np.float64]
+
+
+def wide_window(config: SlamConfig, step_m: float, turn_rad: float) -> tuple[float, float]:
+    """The search window (± metres, ± radians) after an odometry step of ``step_m`` and ``turn_rad``."""
+    xy = min(config.wide_max_window_m, config.wide_window_m + config.wide_window_per_m * step_m)
+    rad = min(
+        config.wide_max_window_rad,
+        config.wide_window_rad + config.wide_window_rad_per_m * step_m + config.wide_window_rad_per_rad * turn_rad,
+    )
+    return xy, rad
+
+
+def tracking_grid(maps: TiledHitMaps, particle: int, center: F64, config: SlamConfig) -> LikelihoodGrid | None:
+    """The coarse likelihood field of a particle's map around ``center`` (3,), for the wide searches until the
+    next update (the maps change only at updates); None while the map holds too few hits."""
+    reach = config.loop_map_radius_m + config.wide_max_window_m + 2.0
+    x, y = float(center[0]), float(center[1])
+    pts = maps.hit_points(particle, x - reach, y - reach, x + reach, y + reach)
+    if len(pts) < 20:
+        return None
+    return likelihood_grid(pts, config.wide_resolution_m, config.wide_sigma_m, config.wide_resolution_m, depth=5)
+
+
+def wide_match(
+    grid: LikelihoodGrid, nominal: F64, points_base: F64, config: SlamConfig, motion_sigma: F64, step_m: float,
+    turn_rad: float,
+) -> tuple[F64, bool] | None:
+    """The mode of the scan's likelihood around an odometry prediction ``nominal`` (3,).
+
+    Searches the motion model's 3σ region (``motion_sigma`` = [σx, σy, σθ]) and the wide window; returns the
+    wide optimum and True when it explains the scan's hit points (M, 2) clearly better than the best pose of the
+    3σ region (a jump), else that best pose and False; None when the map explains the scan too poorly.
+    """
+    res = grid.resolution_m
+    scan = thin_points(points_base, res)
+    scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loop_map_radius_m]
+    if len(scan) < 20:
+        return None
+    win_xy, win_rad = wide_window(config, step_m, turn_rad)
+    near_xy = min(max(3.0 * float(max(motion_sigma[0], motion_sigma[1])), 2 * res), win_xy)
+    near_rad = min(max(3.0 * float(motion_sigma[2]), math.radians(2.0)), win_rad)
+    near = match_scan(grid, scan, nominal, near_xy, near_rad)
+    if near.score <= 0:
+        return None
+    if near.score < config.wide_max_near_score:  # the prediction cannot explain the scan: look wider
+        wide = match_scan(grid, scan, nominal, win_xy, win_rad, min_score=near.score / config.wide_jump_ratio)
+        if wide.score > 0 and wide.score >= config.wide_min_score:
+            return wide.pose, True
+    if near.score < config.wide_min_score:
+        return None
+    return near.pose, False
