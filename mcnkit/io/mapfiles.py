@@ -2,7 +2,7 @@
 
 The map is the filter's hit / pass counts: a cell is occupied when ``hits / (hits + passes)`` exceeds the
 threshold, free when seen otherwise, unknown when never seen.  :func:`write_map_strips` takes the counts strip by
-strip from the top of the map down (:func:`mcnkit.slam.maps.ray_cast_strips`) and writes the PGM row by row, so a
+strip from the top of the map down (:func:`mcnkit.slam.raycast.ray_cast_strips`) and writes the PGM row by row, so a
 campus-sized map never sits in memory whole; the PNG is a preview of at most ``preview_cells`` on its long side
 (each preview pixel occupied if any of its cells is, else free if any is).
 

@@ -2,8 +2,9 @@
 
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.fastslam import FastSlam, SlamStep, counts_to_grid
-from mcnkit.slam.maps import TiledHitMaps, ray_cast_counts
+from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.motion import MotionNoise, sample_motion
+from mcnkit.slam.raycast import ray_cast_counts
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
 
 __all__ = [

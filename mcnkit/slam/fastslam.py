@@ -1,14 +1,25 @@
-"""A Rao-Blackwellized particle filter with gmapping's proposal: :class:`FastSlam` and its :class:`SlamStep`.
+"""A Rao-Blackwellized particle filter with gmapping's proposal, closed into loops by a pose graph: :class:`FastSlam`.
 
-Per scan every particle moves by the odometry increment with sampled noise.  Once the robot has
-travelled ``linear_update_m`` or turned ``angular_update_rad`` (summed increments since the last update),
-a filter update runs: scan-match every particle (:mod:`mcnkit.slam.scanmatch`), add the match
-log-likelihood to its log-weight, normalise with gmapping's flattening, resample (low variance) when
-Neff < ``resample_threshold`` · N, and write the scan's end points into each particle's map.
+Per scan (:meth:`FastSlam.step`):
 
-The reported trajectory is the *best* particle's (highest log-likelihood summed over its ancestry): its
-corrected poses at the filter updates, and between updates the last corrected pose plus the odometry
-change.  The output map is rebuilt from that trajectory and the update scans by ray casting.
+1. **Tracking**: the best particle's pose is matched against its map at every scan (``track_every_scan``): the
+   odometry's prediction is first searched wide on a coarse likelihood field of the map (exact branch and bound,
+   :mod:`mcnkit.slam.widesearch`), so odometry that slips, lies or points the wrong way by 10° is caught, then
+   hill-climbed at full resolution.  The particles move by that tracked motion with gmapping's sampled noise
+   (``motion_from_tracking``).
+2. **Filter update**, once the robot has travelled ``linear_update_m`` or turned ``angular_update_rad``: every
+   particle is scan-matched against its own map (gmapping's hill climbing, or the improved proposal), its
+   log-weight gains the match log-likelihood, the weights are flattened (``ogain``), the set is resampled (low
+   variance) when Neff < ``resample_threshold`` · N, and the scan's end points are written into every map.
+3. **Loop closing** (:mod:`mcnkit.slam.loops`): the update becomes a node of a pose graph; when a wide match of
+   its scan against older scans, confirmed by a second one, disagrees with the estimate, the graph is solved and
+   every particle is put on the solution: the ancestry of all becomes the solved trajectory and the maps are
+   rebuilt on it (:meth:`FastSlam._reanchor`).
+
+The reported trajectory is the *best* particle's (highest log-likelihood summed over its ancestry): its corrected
+poses at the filter updates and, between updates, those poses moved by the tracking.  The output map is rebuilt
+from that trajectory and the update scans by ray casting, with free space out to the map range (see
+``SlamConfig.map_range_m``).
 
 Example:
     >>> slam = FastSlam(SlamConfig(n_particles=10), np.random.default_rng(0))  # doctest: +SKIP
@@ -31,9 +42,10 @@ from mcnkit.grid import log_odds_to_ternary
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.correlative import LikelihoodGrid
 from mcnkit.slam.loops import LoopCloser
-from mcnkit.slam.maps import TiledHitMaps, ray_cast_counts, ray_cast_strips
+from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.motion import MotionNoise, motion_std, sample_motion
 from mcnkit.slam.proposal import proposal_covariance
+from mcnkit.slam.raycast import ray_cast_counts, ray_cast_strips
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.slam.widesearch import tracking_grid, wide_match
@@ -435,7 +447,7 @@ class FastSlam:
     def best_map_strips(self, particle: int | None = None, strip_cells: int = 512) -> tuple[GridSpec, Iterator[
             tuple[int, NDArray[np.uint16], NDArray[np.uint16]]]]:
         """:meth:`best_map` as hit / pass count strips from the top down (bounded memory on large maps; see
-        :func:`mcnkit.slam.maps.ray_cast_strips`)."""
+        :func:`mcnkit.slam.raycast.ray_cast_strips`)."""
         if self._lidar is None or not self.n_updates:
             raise RuntimeError("no scan processed yet")
         lidar = self._lidar

@@ -1,6 +1,6 @@
 """The occupancy map of one particle's lineage, kept up to date by differences instead of rebuilt.
 
-A particle's output map is its update scans ray-cast from its corrected poses (:func:`~mcnkit.slam.maps.
+A particle's output map is its update scans ray-cast from its corrected poses (:func:`~mcnkit.slam.raycast.
 ray_cast_counts`).  Rebuilding that at every filter update costs time quadratic in the run's length.  A
 :class:`LineageMap` holds the hit and pass counts of one sequence of poses; :meth:`LineageMap.sync` moves it to
 another particle's poses by removing the scans whose pose changed and casting them again at the new pose.
@@ -26,7 +26,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from mcnkit.slam.maps import cast_scan, scan_end_points
+from mcnkit.slam.raycast import cast_scan, scan_end_points
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, TernaryMap
 
 __all__ = ["LineageMap"]

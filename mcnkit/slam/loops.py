@@ -38,16 +38,8 @@ from scipy.sparse import csgraph
 
 from mcnkit.geometry import compose, relative
 from mcnkit.slam.config import SlamConfig
-from mcnkit.slam.correlative import (
-    LikelihoodGrid,
-    contradiction,
-    free_space,
-    likelihood_grid,
-    match_scan,
-    overlap,
-    refine_match,
-    thin_points,
-)
+from mcnkit.slam.correlative import LikelihoodGrid, likelihood_grid, match_scan, thin_points
+from mcnkit.slam.likelihood import contradiction, free_space, overlap, refine_match
 from mcnkit.slam.posegraph import Edges, edge_errors, optimize
 from mcnkit.slam.proposal import cap_information, match_information
 

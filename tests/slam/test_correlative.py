@@ -8,13 +8,8 @@ import math
 import numpy as np
 
 from mcnkit.geometry import compose
-from mcnkit.slam.correlative import (
-    likelihood_grid,
-    match_scan,
-    refine_match,
-    score_pose,
-    thin_points,
-)
+from mcnkit.slam.correlative import likelihood_grid, match_scan, thin_points
+from mcnkit.slam.likelihood import refine_match, score_pose
 from mcnkit.slam.proposal import cap_information, match_information
 
 

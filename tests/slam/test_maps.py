@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from mcnkit.slam.fastslam import counts_to_grid
-from mcnkit.slam.maps import TiledHitMaps, ray_cast_counts
+from mcnkit.slam.maps import TiledHitMaps
+from mcnkit.slam.raycast import ray_cast_counts
 from mcnkit.types import GridSpec
 
 
