@@ -17,20 +17,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-import torch
-
-from mcnkit.io import open_log
-from mcnkit.io.cli import describe, print_info
-from mcnkit.io.mapfiles import write_map
-from mcnkit.mcn import McnConfig, McnSlam, load_model
-from mcnkit.metrics import absolute_trajectory_error, write_tum
-from mcnkit.plots import completion_figure
-from mcnkit.run import run_mcn
-from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
-from mcnkit.slam import SlamConfig
-from mcnkit.types import TernaryMap
-
 __all__ = ["DemoResult", "add_demo_parser", "run_demo"]
 
 
@@ -57,6 +43,20 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
              duration_s: float = 120.0, samples: int = 4, ranks: int = 2, model: str = "unet",
              progress: bool = True) -> DemoResult:
     """Simulates, records and scores one run (see the module docstring)."""
+    import numpy as np
+    import torch
+
+    from mcnkit.io import open_log
+    from mcnkit.io.cli import describe, print_info
+    from mcnkit.io.mapfiles import write_map
+    from mcnkit.mcn import McnConfig, McnSlam, load_model
+    from mcnkit.metrics import absolute_trajectory_error, write_tum
+    from mcnkit.plots import completion_figure
+    from mcnkit.run import run_mcn
+    from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
+    from mcnkit.slam import SlamConfig
+    from mcnkit.types import TernaryMap
+
     t0 = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     print(f"[1/4] simulating a robot in procedural apartment #{apartment} (seed {seed})")
@@ -102,10 +102,21 @@ def _main(args: argparse.Namespace) -> int:
     return 0
 
 
+_DESCRIPTION = """MCN-SLAM end to end on embedded data (no download, shipped network weights):
+
+  1. simulate a robot exploring a procedurally generated apartment (lidar, drifting odometry, ground truth);
+  2. write it as a ROS2-profile MCAP log and show 'mcnkit info' of it;
+  3. run MCN-SLAM on the log: grid FastSLAM and, at every filter update, K sampled completions of the R best
+     particles' maps by the shipped U-net, every step recorded to a Rerun file (--rrd); write the trajectory
+     (TUM), the map (PGM/YAML/PNG) and the last completions (PNG) into --out;
+  4. score against the ground truth: trajectory (ATE, SLAM vs raw odometry) and map completion (F of the free
+     space, SLAM map vs completed map, at the first and the last filter update)."""
+
+
 def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit demo``."""
     p = sub.add_parser("demo", help="simulate an apartment, run MCN-SLAM on its log, record it for Rerun (no dataset)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=Path("recordings/demo"), help="output folder (default recordings/demo)")
     p.add_argument("--rrd", type=Path, default=Path("recordings/demo.rrd"), help="the Rerun recording")
     p.add_argument("--apartment", type=int, default=3, help="procedural apartment number (default 3)")

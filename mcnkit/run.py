@@ -22,14 +22,16 @@ from collections.abc import Callable, Iterable
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
 
-from mcnkit.mcn import MODELS, Completion, McnConfig, McnSlam, StepResult, load_model
+from mcnkit.completion.registry import MODELS
 from mcnkit.slam.config import SlamConfig
 from mcnkit.types import Frame, TernaryMap
+
+if TYPE_CHECKING:  # torch loads when a run starts, not for `mcnkit run --help`
+    from mcnkit.mcn import Completion, McnSlam, StepResult
 
 __all__ = ["RunSummary", "add_run_parser", "run_mcn"]
 
@@ -127,9 +129,12 @@ def _write_outputs(out: Path, mcn: McnSlam, summary: RunSummary, args: argparse.
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``mcnkit run``: see the module docstring."""
+    import torch
+
     from mcnkit.cli import fail
     from mcnkit.completion.checkpoint import CheckpointError
     from mcnkit.io import open_log
+    from mcnkit.mcn import McnConfig, McnSlam, load_model
 
     torch.set_num_threads(max(1, args.threads))
     try:
@@ -171,7 +176,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit run``."""
     p = sub.add_parser("run", help="MCN-SLAM on a robot log: SLAM + sampled map completions, recorded to Rerun",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description="MCN-SLAM on a robot log.  At every filter update the R best particles' maps are "
+                       "completed K times by the network (one forward pass); with --rrd the recording gets the "
+                       "particles, the best map and its unknown mask, each rank's map, its K samples and their "
+                       "uncertainty.  With --out it also writes trajectory.tum, the map (map.pgm/.yaml/.png), the "
+                       "last completion (completion.png) and summary.json.  An interrupted run (Ctrl-C, a damaged "
+                       "log) still closes the recording: what was logged stays readable.")
     p.add_argument("log", type=Path, help="a log open_log reads (CARMEN, .bag, rosbag2 folder, .mcap)")
     p.add_argument("--rrd", type=Path, default=None, help="record every step to this Rerun file")
     p.add_argument("--out", type=Path, default=None,
