@@ -77,7 +77,6 @@ def _pair_build(manifest: dict[str, Any]) -> str:
 def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path | None = None,
          conditions: str = "2 CPU cores") -> Path:
     """Copies ``RUN_DIR/best`` to ``WEIGHTS/NAME`` and writes ``WEIGHTS/NAME.md``; returns the card path."""
-    torch.set_num_threads(2)
     src = Path(run_dir) / "best"
     ck = load_checkpoint(src)
     gen, disc = build_models(ck, src)

@@ -28,6 +28,7 @@ from mcnkit.datasets import (
 )
 from mcnkit.datasets.houseexpo import default_data_dir, find_houseexpo
 from mcnkit.grid import ternary_to_network
+from mcnkit.locations import shared_data_dir
 
 __all__ = ["DOMAINS", "augment_dihedral", "encode", "load_domain_pairs"]
 
@@ -42,10 +43,8 @@ if DOMAINS != (*_HOUSEEXPO_DOMAINS, "procedural"):  # the names the command line
 
 
 def _shared_houseexpo() -> Path | None:
-    env = os.environ.get("MCNKIT_SHARED_DATA")
-    cands = [Path(env) / "houseexpo" / "json.tar.gz"] if env else []
-    cands.append(Path(__file__).resolve().parents[3] / "shared" / "data" / "houseexpo" / "json.tar.gz")
-    return next((c for c in cands if c.is_file()), None)
+    archive = shared_data_dir() / "houseexpo" / "json.tar.gz"
+    return archive if archive.is_file() else None
 
 
 def load_domain_pairs(

@@ -31,6 +31,7 @@ from mcnkit.completion.retrieval import retrieve
 from mcnkit.completion.sample import complete, sample_completions
 from mcnkit.completion.scores import score_maps
 from mcnkit.datasets import PairSet, procedural_pairs
+from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
 __all__ = ["CSV_COLUMNS", "SHIPPED", "Exp1Config", "default_weights_dir", "run_exp1"]
@@ -90,14 +91,12 @@ def _rows(
 
 
 def _figure(path: Path, test: PairSet, nets: dict[str, UNet], k: int, n: int, seed: int) -> dict[str, float]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     idx = np.linspace(0, len(test) - 1, min(n, len(test))).astype(int)
     cols = 1 + sum(k + 1 for _ in nets) + 1
-    fig, axes = plt.subplots(len(idx), cols, figsize=(1.6 * cols, 1.7 * len(idx)), squeeze=False)
+    fig = Figure(figsize=(1.6 * cols, 1.7 * len(idx)))
+    axes = fig.subplots(len(idx), cols, squeeze=False)
     diversity: dict[str, float] = {}
     sets = {}
     for name, net in nets.items():
@@ -119,7 +118,6 @@ def _figure(path: Path, test: PairSet, nets: dict[str, UNet], k: int, n: int, se
                 ax.set_title(title, fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return diversity
 
 
@@ -155,8 +153,12 @@ def _md(rows: list[dict[str, object]], diversity: dict[str, float], cfg: Exp1Con
 
 def run_exp1(cfg: Exp1Config) -> str:
     """Runs Experiment 1 and writes its outputs; returns the Markdown report."""
+    with torch_threads(cfg.threads):
+        return _run_exp1(cfg)
+
+
+def _run_exp1(cfg: Exp1Config) -> str:
     t0 = time.perf_counter()
-    torch.set_num_threads(max(1, cfg.threads))
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     wdir = Path(cfg.weights_dir) if cfg.weights_dir else default_weights_dir()

@@ -40,6 +40,7 @@ from mcnkit.completion.nets import DiscriminatorConfig, PatchDiscriminator, UNet
 from mcnkit.completion.sample import complete
 from mcnkit.completion.scores import score_maps
 from mcnkit.datasets import PairSplits
+from mcnkit.threads import torch_threads
 
 __all__ = ["TrainConfig", "TrainResult", "ema_update", "select_device", "train", "weighted_l2"]
 
@@ -203,8 +204,12 @@ def _build(cfg: TrainConfig, size: int) -> tuple[UNet, PatchDiscriminator | None
 
 def train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
     """Trains per ``cfg`` (loading the pairs unless ``splits`` is given); see the module docstring."""
+    with torch_threads(cfg.threads):
+        return _train(cfg, splits)
+
+
+def _train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
     t_start = time.perf_counter()
-    torch.set_num_threads(max(1, cfg.threads))
     rank, world = _dist_info()
     device = select_device(cfg.device)
     if splits is None:

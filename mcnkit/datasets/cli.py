@@ -97,10 +97,7 @@ def cmd_pairs(args: argparse.Namespace) -> int:
 
 def cmd_examples(args: argparse.Namespace) -> int:
     """``mcnkit data examples --out FILE.png``: a grid of example pairs (m_t, mask, m_T) for both domains."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     from mcnkit.datasets.pairs import PairConfig, load_or_build_houseexpo_pairs, procedural_pairs
 
@@ -118,7 +115,8 @@ def cmd_examples(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         return fail("data examples", exc)
     n = args.n
-    fig, axes = plt.subplots(len(rows) * 3, n, figsize=(1.6 * n, 1.7 * 3 * len(rows)), squeeze=False)
+    fig = Figure(figsize=(1.6 * n, 1.7 * 3 * len(rows)))
+    axes = fig.subplots(len(rows) * 3, n, squeeze=False)
     for d, (title, pairs) in enumerate(rows):
         for k in range(n):
             images = (pairs.partial[k], pairs.partial_mask[k], pairs.target[k]) if k < len(pairs) else ()
@@ -136,7 +134,6 @@ def cmd_examples(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=100)
-    plt.close(fig)
     print(f"wrote {out}")
     return 0
 

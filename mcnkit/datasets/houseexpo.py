@@ -39,6 +39,7 @@ from typing import BinaryIO
 import numpy as np
 from numpy.typing import NDArray
 
+from mcnkit.locations import data_dir
 from mcnkit.types import GridSpec
 
 __all__ = [
@@ -329,8 +330,8 @@ def sha256_of(path: str | os.PathLike[str]) -> str:
 
 
 def default_data_dir() -> Path:
-    """Where datasets are installed: ``$MCNKIT_DATA`` if set, else ``./data``."""
-    return Path(os.environ.get("MCNKIT_DATA", "data"))
+    """Where datasets are installed: ``$MCNKIT_DATA`` if set, else ``./data`` (:func:`mcnkit.locations.data_dir`)."""
+    return data_dir()
 
 
 def find_houseexpo(data_dir: str | os.PathLike[str] | None = None) -> Path | None:

@@ -63,6 +63,7 @@ from mcnkit.experiments.common import (
 )
 from mcnkit.experiments.options import Exp2Config, add_exp2_arguments, exp2_config_from_args
 from mcnkit.grid import pool_to_window
+from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec
 
 __all__ = ["CSV_COLUMNS", "PAPER", "Exp2Config", "add_exp2_arguments", "exp2_config_from_args", "run_exp2"]
@@ -251,10 +252,7 @@ def _predictions(partial: F32, nets: dict[str, UNet], bank: F32 | None, k: int, 
 
 def _figure(path: Path, houses: list[HouseRun], late_idx: list[int], comps: dict[str, dict[str, MapCompletions]],
             n: int) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     n = min(n, len(houses))
     labels = list(comps["1"])
@@ -264,7 +262,8 @@ def _figure(path: Path, houses: list[HouseRun], late_idx: list[int], comps: dict
     if unet:
         cols += [f"{unet} s{j + 1}" for j in range(k_show)] + [f"{unet} mean", "uncertainty"]
     cols += [f"{lab} mean" for lab in labels if lab != unet] + ["m_T"]
-    fig, axes = plt.subplots(2 * n, len(cols), figsize=(1.55 * len(cols), 1.7 * 2 * n), squeeze=False)
+    fig = Figure(figsize=(1.55 * len(cols), 1.7 * 2 * n))
+    axes = fig.subplots(2 * n, len(cols), squeeze=False)
     for i in range(n):
         for j, it in enumerate(ITERATIONS):
             r = 2 * i + j
@@ -289,7 +288,6 @@ def _figure(path: Path, houses: list[HouseRun], late_idx: list[int], comps: dict
             axes[r, 0].set_ylabel(f"{h.name.split(':')[-1][:6]}\niter {upd}/{h.n_updates}", fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _curve(houses: list[HouseRun], nets: dict[str, UNet], k: int, seed: int) -> list[dict[str, Any]]:
@@ -315,12 +313,10 @@ def _curve(houses: list[HouseRun], nets: dict[str, UNet], k: int, seed: int) -> 
 
 
 def _curve_figure(path: Path, rows: list[dict[str, Any]]) -> None:
-    import matplotlib
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    fig = Figure(figsize=(11, 4))
+    axes = fig.subplots(1, 2)
     methods = list(dict.fromkeys(r["method"] for r in rows))
     for m in methods:
         rs = [r for r in rows if r["method"] == m]
@@ -340,7 +336,6 @@ def _curve_figure(path: Path, rows: list[dict[str, Any]]) -> None:
     axes[0].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def _fmt_row(r: dict[str, Any]) -> str:
@@ -461,12 +456,16 @@ def _markdown(cfg: Exp2Config, rows: list[dict[str, Any]], houses: list[HouseRun
 
 def run_exp2(cfg: Exp2Config) -> str:
     """Runs Experiment 2 and writes its outputs; returns the Markdown report."""
+    with torch_threads(cfg.threads):
+        return _run_exp2(cfg)
+
+
+def _run_exp2(cfg: Exp2Config) -> str:
     from tqdm import tqdm
 
     from mcnkit.mcn import load_model
 
     t0 = time.perf_counter()
-    torch.set_num_threads(cfg.threads)
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     names, bank, notes = _houses_and_bank(cfg)

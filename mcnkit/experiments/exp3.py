@@ -53,6 +53,8 @@ from mcnkit.experiments.common import (
 )
 from mcnkit.experiments.options import Exp3Config, add_exp3_arguments, exp3_config_from_args
 from mcnkit.grid import pool_to_window
+from mcnkit.locations import shared_data_dir
+from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, Frame, GridSpec, TernaryMap
 
 __all__ = ["CSV_COLUMNS", "Exp3Config", "add_exp3_arguments", "default_logs", "exp3_config_from_args",
@@ -66,10 +68,7 @@ SUMMARY_METRICS = ("f_measure", "f_known", "miou_unknown")
 
 
 def _reallab_dir() -> Path:
-    env = os.environ.get("MCNKIT_SHARED_DATA")
-    if env:
-        return Path(env) / "reallab"
-    return Path(__file__).resolve().parents[3] / "shared" / "data" / "reallab"
+    return shared_data_dir() / "reallab"
 
 
 def default_logs(reallab: str | os.PathLike[str] | None = None) -> tuple[str, ...]:
@@ -126,10 +125,7 @@ def _scores(pred: F32, truth: F32, partial: F32) -> dict[str, float]:
 
 
 def _figure(path: Path, name: str, pts: list[PointWindows], comps: dict[str, MapCompletions], n_updates: int) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     labels = list(comps)
     unet = next((lab for lab in labels if "U-net" in lab), labels[0] if labels else None)
@@ -137,7 +133,8 @@ def _figure(path: Path, name: str, pts: list[PointWindows], comps: dict[str, Map
     if unet:
         cols += [f"{unet} s1", f"{unet} s2", f"{unet} mean", "uncertainty"]
     cols += [f"{lab} mean" for lab in labels if lab != unet] + ["m_T"]
-    fig, axes = plt.subplots(len(pts), len(cols), figsize=(1.6 * len(cols), 1.75 * len(pts)), squeeze=False)
+    fig = Figure(figsize=(1.6 * len(cols), 1.75 * len(pts)))
+    axes = fig.subplots(len(pts), len(cols), squeeze=False)
     for r, pw in enumerate(pts):
         panels: list[tuple[NDArray[np.floating], str]] = [(pw.partial, "gray_r")]
         if unet:
@@ -158,22 +155,19 @@ def _figure(path: Path, name: str, pts: list[PointWindows], comps: dict[str, Map
     fig.suptitle(name, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _overview(path: Path, name: str, final: TernaryMap, pts: list[PointWindows], trajectory: NDArray[np.float64]
               ) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
     from matplotlib.patches import Rectangle
 
     s = final.spec
     assert s is not None
     extent = (s.origin_x_m, s.origin_x_m + s.width * s.resolution_m, s.origin_y_m,
               s.origin_y_m + s.height * s.resolution_m)
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig = Figure(figsize=(7, 7))
+    ax = fig.subplots()
     ax.imshow(final.image, cmap="gray_r", vmin=0, vmax=1, origin="lower", extent=extent, interpolation="nearest")
     ax.plot(trajectory[:, 0], trajectory[:, 1], color="C2", lw=0.8, label="best particle (updates)")
     for pw in pts:
@@ -187,7 +181,6 @@ def _overview(path: Path, name: str, final: TernaryMap, pts: list[PointWindows],
     ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def _run_log(cfg: Exp3Config, path: str, nets: dict[str, Any], out: Path, index: int
@@ -303,12 +296,16 @@ def _markdown(cfg: Exp3Config, rows: list[dict[str, Any]], infos: list[dict[str,
 
 def run_exp3(cfg: Exp3Config) -> str:
     """Runs Experiment 3 and writes its outputs; returns the Markdown report."""
+    with torch_threads(cfg.threads):
+        return _run_exp3(cfg)
+
+
+def _run_exp3(cfg: Exp3Config) -> str:
     from tqdm import tqdm
 
     from mcnkit.mcn import load_model
 
     t0 = time.perf_counter()
-    torch.set_num_threads(cfg.threads)
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     logs = cfg.logs or default_logs()
