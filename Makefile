@@ -19,10 +19,10 @@ help:
 	@echo "make notebooks       run every notebook in full mode (copies with outputs in notebooks/executed/)"
 	@echo "make browser-check   JupyterLab + headless Chromium: run notebook 03, save a screenshot"
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[dev]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[dev]"
 	$(VENV)/bin/rerun analytics disable >/dev/null 2>&1 || true
 	touch $(STAMP)
 

@@ -92,9 +92,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         return fail(name, err)
     except (FileNotFoundError, IsADirectoryError, PermissionError, FileExistsError) as err:
         return fail(name, f"{err.filename}: {err.strerror}")
+    except ModuleNotFoundError as err:
+        extra = EXTRAS.get((err.name or "").split(".")[0])
+        if extra is None:
+            raise
+        return fail(name, f"needs the optional '{extra}' dependencies ({err.name} is not installed): "
+                          f"pip install 'mcnkit[{extra}]'")
     except KeyboardInterrupt:
         print(f"mcnkit {name}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+
+
+EXTRAS = {"torch": "completion", "safetensors": "completion", "skimage": "completion", "matplotlib": "completion",
+          "ipywidgets": "notebooks", "jupyterlab": "notebooks", "rerun_notebook": "notebooks"}
+"""Top-level modules of the optional dependencies and the extra (pyproject.toml) that installs each."""
 
 
 _SUBCOMMAND_KEYS = ("eval_command", "data_command", "experiment")

@@ -3,7 +3,7 @@
 * probabilities → ternary image: occupied 1.0 if p > 0.5, unknown 0.5 if p = 0.5, free 0.0 if p < 0.5;
 * ternary image → unknown mask: 1.0 where unknown, else 0.0;
 * (image, mask) is the 2-channel network input; the network's 2-channel output goes back to ternary by
-  "unknown if mask' ≥ 0.5, else occupied if image' ≥ 0.5, else free" (PAPER-NOTES.md, "Map encoding").
+  "unknown if mask' ≥ 0.5, else occupied if image' ≥ 0.5, else free" (the paper's map encoding).
 
 Resizing (:func:`resize_ternary`) keeps thin walls: when shrinking, each output cell covers a block of
 input cells and takes the *highest-priority* label in its block, occupied > free > unknown.  A one-cell

@@ -33,7 +33,7 @@ __all__ = [
     "Trajectory",
 ]
 
-# The paper's ternary encoding of a map cell (PAPER-NOTES.md, "Map encoding").
+# The paper's ternary encoding of a map cell (the paper's map encoding).
 FREE = 0.0
 UNKNOWN = 0.5
 OCCUPIED = 1.0

@@ -70,3 +70,26 @@ def test_a_log_without_laser_cannot_be_converted(tmp_path: Path, shared_data: Pa
                    "topic (topics: ['/rosout', '/turtle1/color_sensor', '/tf_static', '/turtle2/color_sensor', "
                    "'/turtle1/pose', '/turtle2/pose', '/tf', '/turtle2/cmd_vel', '/turtle1/cmd_vel'])"]
     assert not (tmp_path / "x.bag").exists()
+
+
+def test_a_command_missing_an_optional_dependency_names_the_extra(monkeypatch, capsys) -> None:
+    """A core install (logs + SLAM + Rerun) running `mcnkit train` is told which extra to install, in one line."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_torch(name, *args, **kwargs):  # type: ignore[no-untyped-def]
+        if name == "torch" or name.startswith("torch."):
+            raise ModuleNotFoundError(f"No module named '{name}'", name=name)
+        return real_import(name, *args, **kwargs)
+
+    for mod in [m for m in sys.modules if m == "torch" or m.startswith(("torch.", "mcnkit.completion"))]:
+        monkeypatch.delitem(sys.modules, mod)
+    monkeypatch.setattr(builtins, "__import__", no_torch)
+    from mcnkit.cli import main
+
+    code = main(["train", "--model", "unet", "--domain", "procedural", "--out", "unused"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert err == ["mcnkit train: needs the optional 'completion' dependencies (torch is not installed): "
+                   "pip install 'mcnkit[completion]'"]

@@ -1,6 +1,6 @@
 """Map-completion scores: the paper's per-cell binary classification, and mIoU on the cells unknown in m_t.
 
-**Binary scores** (PAPER-NOTES.md, "Metric"): every cell of the predicted ternary map is classified against m_T,
+**Binary scores** (the paper's metric): every cell of the predicted ternary map is classified against m_T,
 positive = ``FREE`` (the paper's "room area", primary) or ``OCCUPIED``; a cell predicted unknown is a
 negative.  Accuracy, precision, recall and F-measure per map; a map without predicted (or true) positives
 has precision (recall) 0, and F = 0 when precision + recall = 0.  Reported as the per-map mean with a 95 %

@@ -1,13 +1,13 @@
 """HouseExpo's Pseudo-SLAM partial maps, reproduced: the map after the first SLAM iteration.
 
-HouseExpo's simulator (``pseudoslam/envs/simulator/pseudoSlam.py``) works on a raster of the plan at
+HouseExpo's own simulator (pseudoSlam, in the upstream HouseExpo repository) works on a raster of the plan at
 ``px_per_m`` pixels per metre.  For each beam angle ``-fov/2, -fov/2 + step, ... < fov/2`` it walks outward
 pixel by pixel (radii ``0 .. range_px``, coordinates rounded to the nearest pixel, rays leaving the raster held
 at their last pixel inside it) and copies the ground truth into the observed map up to and including the first
 obstacle pixel; every other pixel stays unknown.  The start pose is drawn uniformly among pixels of the window
 ``[0.1, 0.8)`` of the raster's height and width where a disc of the robot radius holds no obstacle, with a
 uniform random heading.  Default config = HouseExpo's default (range 2 m, fov 180°, 1° steps, 16 px/m, robot
-radius 0.2 m), which reproduces the paper's partial-map row (PAPER-NOTES.md).
+radius 0.2 m), which reproduces the paper's partial-map row.
 
 :func:`exploration` goes further than the paper: the union of several scans, each taken from a safe pixel the
 earlier scans saw free, i.e. the map of a robot part-way through exploring the house (used to train the networks

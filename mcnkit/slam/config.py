@@ -1,7 +1,7 @@
 """Configuration of the grid FastSLAM filter, with the ROS ``slam_gmapping`` defaults.
 
 Every field keeps gmapping's meaning (its ROS parameter name is given in brackets) so that results
-can be compared with the C++ core measured in ``design/ANCHORS.md``.
+can be compared with gmapping's C++ core (its figures: `benchmarks/bench_slam.py`).
 
 Example:
     >>> cfg = SlamConfig(n_particles=30)
