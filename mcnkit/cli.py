@@ -11,10 +11,12 @@ import importlib
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from mcnkit import __version__
-from mcnkit.io.errors import LogError
+
+if TYPE_CHECKING:
+    from mcnkit.drive import Signals
 
 __all__ = ["EXIT_BAD_INPUT", "fail", "main"]
 
@@ -67,21 +69,49 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupted(command: str | None, signum: int) -> int:
+    import signal
+
+    print(f"mcnkit {command or ''}: interrupted by {signal.Signals(signum).name}".replace(" :", ":"), file=sys.stderr)
+    return 128 + signum
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``mcnkit`` console script."""
+    """Entry point of the ``mcnkit`` console script.
+
+    SIGINT and SIGTERM end the command with one line on stderr and exit code 130 / 143; a command that writes
+    results (``slam``, ``run``, ``demo``) first finishes the frame at hand and writes what it has (see
+    :mod:`mcnkit.drive`).
+    """
+    import signal
+    import threading
+
+    from mcnkit.drive import SIGNALS
+
+    with SIGNALS.installed(threading.current_thread() is threading.main_thread()):
+        return _main(argv, SIGNALS, signal.SIGINT)
+
+
+def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
     warnings.showwarning = _show_warning
     words = list(sys.argv[1:] if argv is None else argv)
     command = next((w for w in words if not w.startswith("-")), None)
-    args = build_parser(command if command in COMMANDS else None).parse_args(words)
     try:
-        return int(args.func(args))
-    except LogError as err:
-        return fail(args.command, err)
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as err:
-        return fail(args.command, f"{err.filename}: {err.strerror}")
-    except KeyboardInterrupt:
-        print(f"mcnkit {args.command}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        args = build_parser(command if command in COMMANDS else None).parse_args(words)
+        from mcnkit.io.errors import LogError
+        from mcnkit.outputs import OutputError
+
+        try:
+            code = int(args.func(args))
+        except (LogError, OutputError) as err:
+            code = fail(args.command, err)
+        except (FileNotFoundError, IsADirectoryError, PermissionError) as err:
+            code = fail(args.command, f"{err.filename}: {err.strerror}")
+    except KeyboardInterrupt as err:
+        return _interrupted(command, getattr(err, "signum", sigint))
+    if signals.received is not None:
+        return _interrupted(command, signals.received)
+    return code
 
 
 if __name__ == "__main__":

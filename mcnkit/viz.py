@@ -31,6 +31,7 @@ finalises the file, so an interrupted run still leaves a readable recording.
 
 from __future__ import annotations
 
+import os
 import re
 import uuid
 from pathlib import Path
@@ -43,6 +44,7 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from mcnkit.geometry import transform_points
+from mcnkit.outputs import partial_path
 from mcnkit.slam.fastslam import SlamStep
 from mcnkit.types import Frame, TernaryMap
 
@@ -265,7 +267,8 @@ def _columns(kind: str, values: list[Any]) -> Any:
 
 
 class RerunLogger:
-    """Writes one run to ``path`` (``.rrd``) and, with ``notebook_viewer=True``, streams it to ``.viewer``
+    """Writes one run to ``path`` (``.rrd``: written as ``path.partial`` and renamed when closed) and, with
+    ``notebook_viewer=True``, streams it to ``.viewer``
     (a ``rerun.notebook.Viewer``: show it with ``logger.viewer.display()``)."""
 
     def __init__(self, path: str | Path, recording_id: str | None = None,
@@ -276,7 +279,8 @@ class RerunLogger:
         recording_id = recording_id or str(uuid.uuid4())
         blueprint = blueprint or slam_blueprint()
         self.rec = _Tee(APPLICATION_ID, recording_id)
-        self.rec.file.save(str(self.path), default_blueprint=blueprint)
+        self._partial = partial_path(self.path)  # renamed to ``path`` once finalised (see close)
+        self.rec.file.save(str(self._partial), default_blueprint=blueprint)
         self.viewer = self.rec.attach_notebook_viewer(blueprint, viewer_size) if notebook_viewer else None
         self.rec.log("/", rr.AnnotationContext([rr.AnnotationInfo(id=i, label=n, color=c) for i, n, c in _CLASSES]),
                      static=True)
@@ -431,6 +435,8 @@ class RerunLogger:
             self._flush()
             self.rec.flush()
             self.rec.disconnect()
+            if self._partial.is_file():
+                os.replace(self._partial, self.path)
 
     def __enter__(self) -> RerunLogger:
         return self
