@@ -35,10 +35,11 @@ class OutputError(ValueError):
 
 @dataclass(frozen=True)
 class Output:
-    """An output path and whether it is a folder (``--out``) or a file (``--rrd``, a converted log)."""
+    """An output path and whether it is a folder (``--out``), a file (``--rrd``) or either (None: a converted log,
+    a file or a ROS2 bag folder)."""
 
     path: Path
-    folder: bool = False
+    folder: bool | None = False
 
 
 def _resolved(path: Path) -> Path:
@@ -76,7 +77,10 @@ def check_outputs(inputs: Sequence[Path], outputs: Sequence[Output], *, overwrit
         if key in seen:
             raise OutputError(path, f"is named twice as an output (also {seen[key]})")
         seen[key] = path
-        if out.folder:
+        if out.folder is None:
+            if path.exists() and not overwrite:
+                raise OutputError(path, "exists already (pass --overwrite to replace it)")
+        elif out.folder:
             if path.exists() and not path.is_dir():
                 raise OutputError(path, "is a file, not a folder")
             if path.is_dir() and any(path.iterdir()) and not overwrite:

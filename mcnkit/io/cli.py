@@ -106,6 +106,9 @@ def add_info_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def _convert(args: argparse.Namespace) -> int:
+    from mcnkit.outputs import Output, check_outputs
+
+    check_outputs([args.input], [Output(args.output, folder=None)], overwrite=args.overwrite)
     with open_log(args.input, scan_topic=args.scan_topic, odom=args.odom) as log:
         log.check_frames()
         total = next((t.count for t in log.topics if t.name == log.scan_topic), None)
