@@ -37,6 +37,7 @@ from mcnkit.metrics import (
     relations_error,
     relative_pose_error,
 )
+from mcnkit.runconfig import add_dataclass_flags
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.fastslam import FastSlam
 
@@ -53,9 +54,13 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("log", type=Path, help="a log open_log reads (CARMEN .clf/.log[.gz], .bag, rosbag2, .mcap)")
-    p.add_argument("--particles", type=int, default=30, help="number of particles (default 30)")
-    p.add_argument("--resolution", type=float, default=0.05, help="cell size in metres (default 0.05)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="settings file: TOML (a [slam] table of SlamConfig fields, seed = N) or a run's summary.json "
+                        "(re-runs it); flags given here override it")
+    p.add_argument("--particles", type=int, default=None, help="number of particles (default 30; = --slam.n-particles)")
+    p.add_argument("--resolution", type=float, default=None,
+                   help="cell size in metres (default 0.05; = --slam.resolution-m)")
+    p.add_argument("--seed", type=int, default=None, help="random seed (default 0, or the config file's)")
     p.add_argument("--out", type=Path, required=True,
                    help="output folder (created; an existing one that is not empty needs --overwrite)")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--out files, --rrd)")
@@ -63,6 +68,7 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--rrd", type=Path, help="record every step to this Rerun file (.rrd)")
     p.add_argument("--rrd-map-every", type=int, default=10,
                    help="with --rrd: log the best particle's map every N filter updates (default 10)")
+    add_dataclass_flags(p, SlamConfig, "slam")
     p.set_defaults(func=run_slam)
     return p
 
@@ -93,6 +99,28 @@ def _scan_count(reader: Any) -> int | None:
         return None
 
 
+def resolve_slam_config(args: argparse.Namespace) -> tuple[SlamConfig, int]:
+    """The filter's settings and the seed: defaults, then ``--config`` (its ``slam`` table, or the ``config`` of a
+    ``summary.json``), then ``--particles`` / ``--resolution``, then ``--slam.FIELD`` flags."""
+    from mcnkit.runconfig import ConfigError, build_dataclass, dataclass_overrides, read_config_file
+
+    file: dict[str, Any] = read_config_file(args.config) if getattr(args, "config", None) is not None else {}
+    table = file.get("slam", file.get("config", {}))
+    if not isinstance(table, dict):
+        raise ConfigError(f"{args.config}: 'slam' is not a table of settings")
+    try:
+        build_dataclass(SlamConfig, table)
+    except ConfigError as err:
+        raise ConfigError(f"{args.config}: {err}") from err
+    short = {k: v for k, v in (("n_particles", getattr(args, "particles", None)),
+                               ("resolution_m", getattr(args, "resolution", None))) if v is not None}
+    config = build_dataclass(SlamConfig, table, short, dataclass_overrides(args, "slam"))
+    seed = args.seed if args.seed is not None else file.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool):
+        raise ConfigError(f"{args.config}: seed: expected an integer, got {seed!r}")
+    return config, seed
+
+
 def run_slam(args: argparse.Namespace) -> int:
     """Runs the filter over a log and writes trajectory, map and summary into ``args.out`` (also when interrupted:
     the results so far, ``"interrupted": true`` in ``summary.json``)."""
@@ -101,17 +129,17 @@ def run_slam(args: argparse.Namespace) -> int:
     from mcnkit.io import open_log
     from mcnkit.io.errors import LogError
     from mcnkit.outputs import Output, OutputError, check_outputs
+    from mcnkit.runconfig import ConfigError
     from mcnkit.sinks import RecordingSink, SlamOutputs
 
     try:
-        config = SlamConfig(n_particles=args.particles, resolution_m=args.resolution)
-    except ValueError as err:
-        print(f"mcnkit slam: {err}", file=sys.stderr)
-        return 2
+        config, seed = resolve_slam_config(args)
+    except ConfigError as err:
+        return fail("slam", err)
     rrd: Path | None = getattr(args, "rrd", None)
     info = {"log": str(args.log), "particles": config.n_particles, "resolution_m": config.resolution_m,
-            "seed": args.seed, "config": dataclasses.asdict(config)}
-    slam = FastSlam(config, np.random.default_rng(args.seed))
+            "seed": seed, "config": dataclasses.asdict(config)}
+    slam = FastSlam(config, np.random.default_rng(seed))
     outputs = SlamOutputs(args.out, slam, info)
     try:
         check_outputs([args.log], [Output(args.out, folder=True), *([Output(rrd)] if rrd is not None else [])],
@@ -121,7 +149,7 @@ def run_slam(args: argparse.Namespace) -> int:
             if rrd is not None:
                 from mcnkit.viz import RerunLogger  # rerun only when asked for
 
-                logger = RerunLogger(rrd, recording_id=f"slam-{Path(args.log).stem}-{args.seed}")
+                logger = RerunLogger(rrd, recording_id=f"slam-{Path(args.log).stem}-{seed}")
                 sinks.append(RecordingSink(logger, slam, map_every=args.rrd_map_every, trajectory="tracked"))
             outcome = drive(reader.frames(), slam, [*sinks, outputs], stop=SIGNALS.requested)
     except (LogError, OutputError) as err:
