@@ -1,7 +1,8 @@
 """The ``mcnkit`` command: one subcommand per job, each implemented next to the code it drives.
 
 Every subcommand is a function ``(argparse.Namespace) -> exit code``.  Bad input ends with one line on
-stderr naming the file and the problem, and exit code 2; Ctrl-C ends with exit code 130.
+stderr naming the file and the problem, and exit code 2; SIGINT (Ctrl-C) and SIGTERM end with one line and exit
+code 130 / 143.
 """
 
 from __future__ import annotations
@@ -18,15 +19,17 @@ from mcnkit import __version__
 if TYPE_CHECKING:
     from mcnkit.drive import Signals
 
-__all__ = ["EXIT_BAD_INPUT", "fail", "main"]
+__all__ = ["COMMANDS", "EXIT_BAD_INPUT", "build_parser", "fail", "main"]
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
 
 def fail(command: str, message: object) -> int:
-    """Reports bad input the way every subcommand does: one line on stderr; returns the exit code (2)."""
-    print(f"mcnkit {command}: error: {message}", file=sys.stderr)
+    """Reports bad input the way every subcommand does: one line ``mcnkit COMMAND: FILE: problem`` on stderr
+    (the message names the file); returns the exit code (2)."""
+    text = str(message).strip()
+    print(f"mcnkit {command}: {text.splitlines()[0] if text else 'failed'}", file=sys.stderr)
     return EXIT_BAD_INPUT
 
 
@@ -37,24 +40,30 @@ def _show_warning(
     print(f"warning: {message}", file=sys.stderr)
 
 
-# name -> (module, function adding its subparser).  Only the module of the command being run is imported, so
-# `mcnkit slam` does not pay for rerun, torch or the dataset tools (time and memory).
-COMMANDS: dict[str, tuple[str, str]] = {
-    "demo": ("mcnkit.demo", "add_demo_parser"),
-    "info": ("mcnkit.io.cli", "add_info_parser"),
-    "convert": ("mcnkit.io.cli", "add_convert_parser"),
-    "slam": ("mcnkit.slam.cli", "add_slam_parser"),
-    "run": ("mcnkit.run", "add_run_parser"),
-    "eval": ("mcnkit.slam.cli", "add_eval_parser"),
-    "simulate": ("mcnkit.datasets.cli", "add_simulate_parser"),
-    "data": ("mcnkit.datasets.cli", "add_data_parser"),
-    "train": ("mcnkit.completion.cli", "add_train_parser"),
-    "experiment": ("mcnkit.experiments.cli", "add_experiment_parser"),
+# name -> (module, function adding its subparser, one-line summary for `mcnkit --help`).  Only the module of the
+# command being run is imported, and these modules import torch, rerun, numba and the readers inside the command
+# functions, so that `mcnkit --help` and `mcnkit COMMAND --help` print at once.
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "demo": ("mcnkit.demo", "add_demo_parser",
+             "simulate an apartment, run MCN-SLAM on its log, record it for Rerun (no dataset)"),
+    "info": ("mcnkit.io.cli", "add_info_parser", "show what a robot log holds"),
+    "convert": ("mcnkit.io.cli", "add_convert_parser", "rewrite a log as ROS1 bag, ROS2 bag (sqlite3/mcap) or MCAP"),
+    "slam": ("mcnkit.slam.cli", "add_slam_parser", "run grid FastSLAM (gmapping-class) on a robot log"),
+    "run": ("mcnkit.run", "add_run_parser",
+            "MCN-SLAM on a robot log: SLAM + sampled map completions, recorded to Rerun"),
+    "eval": ("mcnkit.slam.evaluate", "add_eval_parser",
+             "score a TUM trajectory (relations error, ATE/RPE), or write a log's ground truth as TUM"),
+    "simulate": ("mcnkit.datasets.cli", "add_simulate_parser",
+                 "simulate a robot with a lidar on a floor plan and write a log"),
+    "data": ("mcnkit.datasets.cli", "add_data_parser", "install datasets, build training pairs, draw example pairs"),
+    "train": ("mcnkit.completion.cli", "add_train_parser", "train a map completion network (U-net or pix2pix)"),
+    "experiment": ("mcnkit.experiments.cli", "add_experiment_parser",
+                   "run one of the paper's experiments (exp1, exp2, exp3)"),
 }
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
-    """The argument parser with every subcommand (or just ``only``)."""
+    """The argument parser: ``only``'s full subparser (its module imported), the others as one-line entries."""
     parser = argparse.ArgumentParser(
         prog="mcnkit",
         description="Map completion network SLAM: read robot logs, run grid FastSLAM with map completion, "
@@ -63,16 +72,19 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"mcnkit {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name, (module, adder) in COMMANDS.items():
-        if only is None or name == only:
+    for name, (module, adder, summary) in COMMANDS.items():
+        if name == only:
             getattr(importlib.import_module(module), adder)(sub)
+        else:
+            sub.add_parser(name, help=summary)
     return parser
 
 
-def _interrupted(command: str | None, signum: int) -> int:
+def _interrupted(name: str | None, signum: int) -> int:
     import signal
 
-    print(f"mcnkit {command or ''}: interrupted by {signal.Signals(signum).name}".replace(" :", ":"), file=sys.stderr)
+    print(f"mcnkit {name}: interrupted by {signal.Signals(signum).name}" if name else
+          f"mcnkit: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
     return 128 + signum
 
 
@@ -96,22 +108,29 @@ def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
     warnings.showwarning = _show_warning
     words = list(sys.argv[1:] if argv is None else argv)
     command = next((w for w in words if not w.startswith("-")), None)
+    name = command if command in COMMANDS else None
     try:
-        args = build_parser(command if command in COMMANDS else None).parse_args(words)
+        args = build_parser(name).parse_args(words)
+        from mcnkit.completion.registry import CheckpointError  # after parsing: --help needs none of these
         from mcnkit.io.errors import LogError
         from mcnkit.outputs import OutputError
 
+        name = " ".join(str(w) for w in (args.command, *(getattr(args, k, None) for k in _SUBCOMMAND_KEYS)) if w)
         try:
             code = int(args.func(args))
-        except (LogError, OutputError) as err:
-            code = fail(args.command, err)
-        except (FileNotFoundError, IsADirectoryError, PermissionError) as err:
-            code = fail(args.command, f"{err.filename}: {err.strerror}")
-    except KeyboardInterrupt as err:
-        return _interrupted(command, getattr(err, "signum", sigint))
+        except (LogError, CheckpointError, OutputError) as err:
+            code = fail(name, err)
+        except (FileNotFoundError, IsADirectoryError, PermissionError, FileExistsError) as err:
+            code = fail(name, f"{err.filename}: {err.strerror}")
+    except KeyboardInterrupt as err:  # a signal outside a drive (mcnkit.drive.Interrupted), or Ctrl-C elsewhere
+        return _interrupted(name, getattr(err, "signum", sigint))
     if signals.received is not None:
-        return _interrupted(command, signals.received)
+        return _interrupted(name, signals.received)
     return code
+
+
+_SUBCOMMAND_KEYS = ("eval_command", "data_command", "experiment")
+"""Namespace keys of the second word of two-word commands (``eval ate``, ``data pairs``, ``experiment exp2``)."""
 
 
 if __name__ == "__main__":

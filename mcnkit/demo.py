@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mcnkit.run import MODEL_NAMES
+from mcnkit.completion.registry import MODELS
 
 if TYPE_CHECKING:
     from mcnkit.drive import Signals
@@ -112,7 +112,7 @@ def _main(args: argparse.Namespace) -> int:
     from mcnkit.drive import SIGNALS
     from mcnkit.outputs import Output, check_outputs
 
-    model_path = [] if args.model in MODEL_NAMES else [Path(args.model)]
+    model_path = [] if args.model in MODELS else [Path(args.model)]
     rrd = args.rrd if args.rrd is not None else args.out / "demo.rrd"
     check_outputs(model_path, [Output(args.out, folder=True), Output(rrd)], overwrite=args.overwrite)
     result = run_demo(args.out, rrd, apartment=args.apartment, seed=args.seed, particles=args.particles,
@@ -123,10 +123,24 @@ def _main(args: argparse.Namespace) -> int:
     return 0
 
 
+_DESCRIPTION = """MCN-SLAM end to end on embedded data (no download, shipped network weights):
+
+  1. simulate a robot exploring a procedurally generated apartment (lidar, drifting odometry, ground truth);
+  2. write it as a ROS2-profile MCAP log and show 'mcnkit info' of it;
+  3. run MCN-SLAM on the log: grid FastSLAM and, at every filter update, K sampled completions of the R best
+     particles' maps by the shipped U-net, every step recorded to a Rerun file (--rrd); write the trajectory
+     (TUM), the map (PGM/YAML/PNG) and the last completions (PNG) into --out;
+  4. score against the ground truth: trajectory (ATE, SLAM vs raw odometry) and map completion (F of the free
+     space, SLAM map vs completed map, at the first and the last filter update).
+
+Outputs go to recordings/demo/ by default (git ignores it); an earlier run there is replaced only with
+--overwrite.  Ctrl-C or SIGTERM during MCN-SLAM writes the recording and outputs so far (exit 130 / 143)."""
+
+
 def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit demo``."""
     p = sub.add_parser("demo", help="simulate an apartment, run MCN-SLAM on its log, record it for Rerun (no dataset)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=Path("recordings/demo"),
                    help="output folder (default recordings/demo, which git ignores)")
     p.add_argument("--rrd", type=Path, default=None, help="the Rerun recording (default OUT/demo.rrd)")
@@ -138,5 +152,5 @@ def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")
     p.add_argument("--ranks", type=int, default=2, help="R best particles completed (default 2)")
     p.add_argument("--model", default="unet",
-                   help=f"{', '.join(MODEL_NAMES)} (shipped weights) or a checkpoint path (default unet)")
+                   help=f"{', '.join(MODELS)} (shipped weights) or a checkpoint path (default unet)")
     p.set_defaults(func=_main)

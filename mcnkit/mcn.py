@@ -40,6 +40,7 @@ import torch
 from numpy.typing import NDArray
 
 from mcnkit.completion.nets import UNet
+from mcnkit.completion.registry import MODELS, CheckpointError, default_weights_dir
 from mcnkit.completion.sample import inference_net, label_entropy, sample_completions
 from mcnkit.completion.scores import miou_unknown, score_maps
 from mcnkit.geometry import compose
@@ -55,18 +56,16 @@ F32 = NDArray[np.float32]
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
-MODELS = {"unet": "unet-houseexpo", "unet-explore": "unet-houseexpo-explore", "pix2pix": "pix2pix-houseexpo",
-          "unet-procedural": "unet-procedural"}
-"""Short names of the shipped weights (``mcnkit/weights/<name>.safetensors``)."""
-
 
 def load_model(name_or_path: str | Path, device: str | torch.device = "cpu") -> UNet:
     """A completion generator in eval mode: a short name of :data:`MODELS` or a checkpoint path."""
-    from mcnkit.completion.checkpoint import load_generator
-    from mcnkit.completion.exp1 import default_weights_dir
+    from mcnkit.completion.checkpoint import checkpoint_paths, load_generator
 
     key = str(name_or_path)
     path = default_weights_dir() / MODELS[key] if key in MODELS else Path(key)
+    if key not in MODELS and not any(p.exists() for p in checkpoint_paths(path)):
+        raise CheckpointError(f"{key}: neither a shipped model ({', '.join(MODELS)}) nor a checkpoint "
+                              "(NAME.safetensors + NAME.json)")
     net, _info = load_generator(path)
     return net.to(device).eval()
 

@@ -11,14 +11,21 @@ provided it lies within ``tolerance_s`` (default 5 ms; scans are ~0.2 s apart an
 are the scans' own stamps, so each one matches exactly one scan).  Relations with an end that has no
 pose within the tolerance are skipped and counted in ``n_skipped``.
 
-**ATE**: reference poses are matched to estimate poses by nearest stamp (same rule); the estimate is
-rigidly aligned to the reference (2-D rotation + translation, least squares); ATE is the RMSE of the
-position differences.  **RPE**: over consecutive matched pairs, the relations error with ``δ*`` taken
-from the reference.
+**ATE**: reference poses are matched to estimate poses by nearest stamp (same rule), or, with
+``match="order"``, the k-th pose of one to the k-th of the other (for logs whose stamps carry no time, when both
+trajectories hold one pose per scan); the estimate is rigidly aligned to the reference (2-D rotation +
+translation, least squares); ATE is the RMSE of the position differences.  **RPE**: over consecutive matched
+pairs, the relations error with ``δ*`` taken from the reference.
+
+**Refusals**: a score over a few matched poses, or over stamps that cannot be matched, reads like a result and is
+not one.  Matching by stamp raises :class:`EvaluationError` when a trajectory's stamps repeat (e.g. all equal:
+the log's clock carried no time), and every metric raises it when fewer than ``min_matched`` poses (relations)
+or less than ``min_fraction`` of the reference's match; the message says how many matched and what to do.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,9 +37,11 @@ from mcnkit.types import Trajectory
 
 __all__ = [
     "AteResult",
+    "EvaluationError",
     "Relations",
     "RelationsError",
     "absolute_trajectory_error",
+    "match_poses",
     "match_stamps",
     "read_relations",
     "read_tum",
@@ -45,7 +54,17 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
 
+class EvaluationError(ValueError):
+    """Two trajectories (or a trajectory and relations) that cannot be scored against each other: too few poses
+    match, or stamps that cannot be matched (the message says why and what to do)."""
+
+
 def _seconds_to_ns(text: str) -> int:
+    if "e" in text.lower():  # 1.305031102e+09: through float (nan and inf are not stamps)
+        value = float(text)
+        if not math.isfinite(value):
+            raise ValueError(f"not a time stamp: {text!r}")
+        return round(value * 1e9)
     sign = -1 if text.startswith("-") else 1
     whole, _, frac = text.lstrip("+-").partition(".")
     return sign * (int(whole or 0) * 1_000_000_000 + int((frac + "000000000")[:9] or 0))
@@ -67,8 +86,11 @@ def read_tum(path: Path) -> Trajectory:
         if len(tok) != 8:
             raise ValueError(f"{path}: a TUM line has 8 fields, got {len(tok)}: {line!r}")
         q = np.array([float(v) for v in tok[4:8]])
+        pose = (float(tok[1]), float(tok[2]), float(quaternion_to_yaw(q)))
+        if not (np.isfinite(q).all() and np.isfinite(pose).all()) or not np.any(q):
+            raise ValueError(f"{path}: a TUM line with a non-finite position or no rotation: {line!r}")
         stamps.append(_seconds_to_ns(tok[0]))
-        poses.append((float(tok[1]), float(tok[2]), float(quaternion_to_yaw(q))))
+        poses.append(pose)
     return Trajectory(np.asarray(stamps, dtype=np.int64), np.asarray(poses, dtype=np.float64).reshape(-1, 3))
 
 
@@ -89,6 +111,9 @@ class Relations:
     t1_ns: I64
     t2_ns: I64
     delta: F64
+
+    def __len__(self) -> int:
+        return len(self.t1_ns)
 
 
 def read_relations(path: Path) -> Relations:
@@ -164,11 +189,20 @@ def _relation_errors(est_delta: F64, ref_delta: F64) -> tuple[F64, F64]:
     return np.hypot(e[:, 0], e[:, 1]), np.degrees(np.abs(wrap_angle(e[:, 2])))
 
 
-def relations_error(trajectory: Trajectory, relations: Relations, tolerance_s: float = 0.005) -> RelationsError:
-    """The Kümmerle relations metric of ``trajectory`` (stamps matched as described in the module doc)."""
-    i = match_stamps(trajectory.stamps_ns, relations.t1_ns, tolerance_s)
-    j = match_stamps(trajectory.stamps_ns, relations.t2_ns, tolerance_s)
+def relations_error(trajectory: Trajectory, relations: Relations, tolerance_s: float = 0.005, *,
+                    min_matched: int = 0, min_fraction: float = 0.0) -> RelationsError:
+    """The Kümmerle relations metric of ``trajectory`` (stamps matched as described in the module doc).
+
+    Raises :class:`EvaluationError` when the trajectory's stamps repeat, or fewer than ``min_matched`` relations
+    (or less than ``min_fraction`` of them) have both ends matched."""
+    traj = _by_stamp(trajectory, "trajectory")
+    i = match_stamps(traj.stamps_ns, relations.t1_ns, tolerance_s)
+    j = match_stamps(traj.stamps_ns, relations.t2_ns, tolerance_s)
     ok = (i >= 0) & (j >= 0)
+    _enough(int(np.count_nonzero(ok)), len(ok), "relations", min_matched, min_fraction,
+            f"have both ends within {tolerance_s} s of a trajectory pose",
+            "the relations belong to another log, or the trajectory's stamps are not the log's own")
+    trajectory = traj
     est = relative(trajectory.poses[i[ok]], trajectory.poses[j[ok]])
     t, r = _relation_errors(est, relations.delta[ok])
     return RelationsError(t, r, int(np.count_nonzero(~ok)))
@@ -188,17 +222,65 @@ class AteResult:
         return {"rmse_m": self.rmse_m, "mean_m": self.mean_m, "max_m": self.max_m, "n_matched": self.n_matched}
 
 
-def _matched(estimate: Trajectory, reference: Trajectory, tolerance_s: float) -> tuple[F64, F64]:
-    k = match_stamps(estimate.stamps_ns, reference.stamps_ns, tolerance_s)
+def _by_stamp(trajectory: Trajectory, what: str) -> Trajectory:
+    """``trajectory`` in stamp order; :class:`EvaluationError` when stamps repeat (nearest-stamp matching would
+    pick one of the poses sharing a stamp at random)."""
+    stamps = np.asarray(trajectory.stamps_ns, dtype=np.int64)
+    order = np.argsort(stamps, kind="stable")
+    sorted_stamps = stamps[order]
+    repeats = int(np.count_nonzero(np.diff(sorted_stamps) == 0))
+    if repeats:
+        distinct = len(sorted_stamps) - repeats
+        raise EvaluationError(
+            f"the {what}'s stamps repeat ({len(sorted_stamps)} poses, {distinct} distinct stamp"
+            f"{'s' if distinct != 1 else ''}): poses cannot be matched by stamp; if both trajectories hold one "
+            "pose per scan of the same log, match them by order (--match order)")
+    if (order == np.arange(len(order))).all():
+        return trajectory
+    return Trajectory(sorted_stamps, np.asarray(trajectory.poses)[order])
+
+
+_NOT_THE_SAME_RUN = ("the trajectories do not cover the same run, or their stamps differ (another clock, or "
+                     "rebuilt stamps: try --match order)")
+
+
+def _enough(n_matched: int, n_total: int, what: str, min_matched: int, min_fraction: float, how: str,
+            why: str = _NOT_THE_SAME_RUN) -> None:
+    need = max(min_matched, math.ceil(min_fraction * n_total - 1e-9), 1)
+    if n_matched < need:
+        raise EvaluationError(f"only {n_matched} of {n_total} {what} {how} (at least {need} needed): {why}")
+
+
+def match_poses(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005, *,
+                match: str = "stamp", min_matched: int = 2, min_fraction: float = 0.0) -> tuple[F64, F64]:
+    """The estimate's and the reference's poses that correspond, ``(M, 3)`` each.
+
+    ``match="stamp"``: each reference pose with the estimate pose of the nearest stamp within ``tolerance_s``;
+    ``match="order"``: the k-th pose of each (both must hold the same number).  :class:`EvaluationError` when
+    stamps repeat (by stamp), the counts differ (by order), or fewer than ``min_matched`` poses (or less than
+    ``min_fraction`` of the reference's) match."""
+    if match == "order":
+        if len(estimate) != len(reference):
+            raise EvaluationError(f"matching by order needs one estimate pose per reference pose, got "
+                                  f"{len(estimate)} estimate and {len(reference)} reference poses")
+        _enough(len(reference), len(reference), "reference poses", min_matched, min_fraction, "are present")
+        return np.asarray(estimate.poses, np.float64), np.asarray(reference.poses, np.float64)
+    if match != "stamp":
+        raise ValueError(f"match must be 'stamp' or 'order', got {match!r}")
+    est, ref = _by_stamp(estimate, "estimate"), _by_stamp(reference, "reference")
+    k = match_stamps(est.stamps_ns, ref.stamps_ns, tolerance_s)
     ok = k >= 0
-    if np.count_nonzero(ok) < 2:
-        raise ValueError("fewer than 2 reference poses have an estimate within the stamp tolerance")
-    return estimate.poses[k[ok]], reference.poses[ok]
+    _enough(int(np.count_nonzero(ok)), len(ref), "reference poses", min_matched, min_fraction,
+            f"have an estimate within {tolerance_s} s")
+    return est.poses[k[ok]], ref.poses[ok]
 
 
-def absolute_trajectory_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005) -> AteResult:
-    """ATE of ``estimate`` against ``reference`` after the least-squares rigid alignment of positions."""
-    est, ref = _matched(estimate, reference, tolerance_s)
+def absolute_trajectory_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005, *,
+                              match: str = "stamp", min_matched: int = 2, min_fraction: float = 0.0) -> AteResult:
+    """ATE of ``estimate`` against ``reference`` after the least-squares rigid alignment of positions (poses
+    matched by :func:`match_poses`, which says when it refuses)."""
+    est, ref = match_poses(estimate, reference, tolerance_s, match=match, min_matched=min_matched,
+                           min_fraction=min_fraction)
     a, b = est[:, :2], ref[:, :2]
     ca, cb = a.mean(axis=0), b.mean(axis=0)
     h = (a - ca).T @ (b - cb)
@@ -209,8 +291,10 @@ def absolute_trajectory_error(estimate: Trajectory, reference: Trajectory, toler
     return AteResult(float(np.sqrt(np.mean(err**2))), float(err.mean()), float(err.max()), len(err))
 
 
-def relative_pose_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005) -> RelationsError:
-    """RPE: the relations error over consecutive matched reference poses."""
-    est, ref = _matched(estimate, reference, tolerance_s)
+def relative_pose_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005, *,
+                        match: str = "stamp", min_matched: int = 2, min_fraction: float = 0.0) -> RelationsError:
+    """RPE: the relations error over consecutive matched reference poses (matched by :func:`match_poses`)."""
+    est, ref = match_poses(estimate, reference, tolerance_s, match=match, min_matched=max(min_matched, 2),
+                           min_fraction=min_fraction)
     t, r = _relation_errors(relative(est[:-1], est[1:]), relative(ref[:-1], ref[1:]))
     return RelationsError(t, r, 0)

@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mcnkit.completion.registry import MODELS
 from mcnkit.sinks import RunSummary
 
 if TYPE_CHECKING:
@@ -29,10 +30,6 @@ if TYPE_CHECKING:
     from mcnkit.types import Frame, TernaryMap
 
 __all__ = ["RunSummary", "add_run_parser", "mcn_sinks", "run_mcn"]
-
-MODEL_NAMES = ("unet", "unet-explore", "pix2pix", "unet-procedural")
-"""The shipped weights' short names (``mcnkit.mcn.MODELS``, kept here so ``--help`` needs no torch; a test
-checks they agree)."""
 
 
 def mcn_sinks(mcn: McnSlam, *, rrd: Path | None = None, recording_id: str | None = None,
@@ -88,7 +85,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from mcnkit.completion.checkpoint import CheckpointError
     from mcnkit.drive import SIGNALS, drive
     from mcnkit.io import open_log
-    from mcnkit.mcn import MODELS, McnConfig, McnSlam, load_model
+    from mcnkit.mcn import McnConfig, McnSlam, load_model
     from mcnkit.outputs import Output, check_outputs
     from mcnkit.sinks import McnOutputs
     from mcnkit.slam.config import SlamConfig
@@ -136,14 +133,21 @@ def cmd_run(args: argparse.Namespace) -> int:
 def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit run``."""
     p = sub.add_parser("run", help="MCN-SLAM on a robot log: SLAM + sampled map completions, recorded to Rerun",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description="MCN-SLAM on a robot log.  At every filter update the R best particles' maps are "
+                       "completed K times by the network (one forward pass); with --rrd the recording gets the "
+                       "particles, the best map and its unknown mask, each rank's map, its K samples and their "
+                       "uncertainty.  With --out it also writes trajectory.tum, the map (map.pgm/.yaml/.png), the "
+                       "last completion (completion.png) and summary.json.  An interrupted run (Ctrl-C, SIGTERM, a "
+                       "damaged log) still closes the recording (rerun rrd verify passes) and writes --out with the "
+                       "results so far (\"interrupted\": true in summary.json); exit code 130 / 143 for a signal.  "
+                       "Outputs never replace an input, and replace existing files only with --overwrite.")
     p.add_argument("log", type=Path, help="a log open_log reads (CARMEN, .bag, rosbag2 folder, .mcap)")
     p.add_argument("--rrd", type=Path, default=None, help="record every step to this Rerun file")
     p.add_argument("--out", type=Path, default=None,
                    help="also write trajectory.tum, map.pgm/.yaml/.png, completion.png, summary.json here")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--rrd, --out files)")
     p.add_argument("--model", default="unet-explore",
-                   help=f"completion network: {', '.join(MODEL_NAMES)} (shipped weights) or a checkpoint path "
+                   help=f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path "
                         "(default unet-explore: the U-net trained on maps part-way through an exploration, which "
                         "leaves the outside of a building occupied; unet is the paper's, trained on one-scan maps)")
     p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")

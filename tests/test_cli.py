@@ -50,8 +50,8 @@ def test_convert_real_lab_log_to_a_bag_by_suffix(tmp_path: Path, shared_data: Pa
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["info", "/no/such/file.bag"], "mcnkit info: error: /no/such/file.bag: no such file or folder"),
-        (["convert", "/no/such.clf", "out.bag"], "mcnkit convert: error: /no/such.clf: no such file or folder"),
+        (["info", "/no/such/file.bag"], "mcnkit info: /no/such/file.bag: no such file or folder"),
+        (["convert", "/no/such.clf", "out.bag"], "mcnkit convert: /no/such.clf: no such file or folder"),
     ],
 )
 def test_bad_input_ends_with_one_line_and_exit_code_2(args: list[str], message: str, tmp_path: Path) -> None:
@@ -66,7 +66,7 @@ def test_bad_input_ends_with_one_line_and_exit_code_2(args: list[str], message: 
 def test_a_log_without_laser_cannot_be_converted(tmp_path: Path, shared_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["convert", str(shared_data / "fixtures/rosbag_js/example.bag"), str(tmp_path / "x.bag")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"mcnkit convert: error: {shared_data / 'fixtures/rosbag_js/example.bag'}: no sensor_msgs/LaserScan "
+    assert err == [f"mcnkit convert: {shared_data / 'fixtures/rosbag_js/example.bag'}: no sensor_msgs/LaserScan "
                    "topic (topics: ['/rosout', '/turtle1/color_sensor', '/tf_static', '/turtle2/color_sensor', "
                    "'/turtle1/pose', '/turtle2/pose', '/tf', '/turtle2/cmd_vel', '/turtle1/cmd_vel'])"]
     assert not (tmp_path / "x.bag").exists()

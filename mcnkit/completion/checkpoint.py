@@ -4,7 +4,9 @@ Tensor keys are ``generator.*`` (the U-net), ``discriminator.*`` (pix2pix only),
 checkpoints, ``optim.<net>.<param index>.<state>`` plus ``rng.torch`` (the data generator's state).  The JSON
 holds ``format`` = ``"mcnkit-completion"``, ``version``, ``arch`` (``unet`` | ``pix2pix``), ``generator`` and
 ``discriminator`` configs and a free ``info`` dict (epoch, metrics, command...).  Loading into a model of
-another architecture or shape raises :class:`CheckpointError` with a one-line message naming the file.
+another architecture or shape, or a checkpoint with a NaN or infinite value in any floating-point tensor (a run
+that diverged, damaged bytes: such a network completes every map alike), raises :class:`CheckpointError` with a
+one-line message naming the file.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from safetensors.torch import load_file, save_file
 from torch import nn
 
 from mcnkit.completion.nets import DiscriminatorConfig, PatchDiscriminator, UNet, UNetConfig
+from mcnkit.completion.registry import CheckpointError
 
 __all__ = [
     "FORMAT",
@@ -37,10 +40,6 @@ __all__ = [
 FORMAT = "mcnkit-completion"
 VERSION = 1
 ARCHS = ("unet", "pix2pix")
-
-
-class CheckpointError(ValueError):
-    """A checkpoint that is missing, unreadable, or of another architecture/shape (message names the file)."""
 
 
 @dataclass
@@ -129,7 +128,19 @@ def load_checkpoint(path: str | os.PathLike[str], expect_arch: str | None = None
         tensors = load_file(str(st_path))
     except (SafetensorError, OSError) as exc:
         raise CheckpointError(f"{st_path}: unreadable safetensors ({exc})") from exc
+    _check_finite(tensors, st_path)
     return Checkpoint(str(arch), gcfg, dcfg, tensors, dict(meta.get("info") or {}))
+
+
+def _check_finite(tensors: dict[str, torch.Tensor], where: Path) -> None:
+    bad = {k: int((~torch.isfinite(v)).sum()) for k, v in tensors.items() if v.is_floating_point() or v.is_complex()}
+    bad = {k: n for k, n in bad.items() if n}
+    if bad:
+        first = sorted(bad)[0]
+        raise CheckpointError(
+            f"{where}: {sum(bad.values())} non-finite value(s) (NaN or infinite) in {len(bad)} tensor(s), e.g. "
+            f"{first!r} ({bad[first]}): a diverged or damaged checkpoint"
+        )
 
 
 def _load_into(model: nn.Module, state: dict[str, torch.Tensor], where: Path, what: str) -> None:

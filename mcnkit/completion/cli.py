@@ -11,14 +11,14 @@ import sys
 from collections.abc import Sequence
 
 from mcnkit.cli import fail
-from mcnkit.completion.checkpoint import CheckpointError
-from mcnkit.completion.data import DOMAINS
+from mcnkit.completion.registry import DOMAINS
 
 __all__ = ["add_exp1_arguments", "add_train_parser", "cmd_experiment", "cmd_train", "main"]
 
 
 def cmd_train(args: argparse.Namespace) -> int:
     """``mcnkit train --model unet|pix2pix --out DIR ...`` (torchrun-aware)."""
+    from mcnkit.completion.checkpoint import CheckpointError
     from mcnkit.completion.train import TrainConfig, distributed_train
 
     try:
@@ -32,6 +32,7 @@ def cmd_train(args: argparse.Namespace) -> int:
             epochs=args.epochs,
             batch_size=args.batch_size,
             lr=args.lr,
+            lr_discriminator=args.lr_discriminator,
             beta1=args.beta1,
             seed=args.seed,
             unknown_weight=args.unknown_weight,
@@ -72,45 +73,51 @@ def cmd_train(args: argparse.Namespace) -> int:
 def add_train_parser(subparsers: argparse._SubParsersAction) -> None:
     """Adds ``train``."""
     p = subparsers.add_parser("train", help="train a map completion network (U-net or pix2pix)")
-    p.add_argument("--model", choices=["unet", "pix2pix"], default="unet")
+    p.add_argument("--model", choices=["unet", "pix2pix"], default="unet",
+                   help="unet: the generator alone (L2 loss); pix2pix: the same generator with a patch "
+                        "discriminator (default unet)")
     p.add_argument("--domain", choices=DOMAINS, default="houseexpo",
                    help="houseexpo: the paper's pairs (one 180°, 2 m scan); houseexpo-explore: m_t after 1-12 scans "
                         "of a 360°, 8 m lidar (what MCN-SLAM completes during a run); procedural: HOME'S-style masks")
     p.add_argument("--out", required=True, help="run directory (best.* and last.* checkpoints)")
-    p.add_argument("--n-train", type=int, default=5000)
-    p.add_argument("--n-val", type=int, default=200)
-    p.add_argument("--n-test", type=int, default=1000, help="test pairs built with the split (cache key)")
-    p.add_argument("--epochs", type=int, default=10)
-    p.add_argument("--batch-size", type=int, default=32)
-    p.add_argument("--lr", type=float, default=2e-3)
+    p.add_argument("--n-train", type=int, default=5000, help="training pairs (default 5000)")
+    p.add_argument("--n-val", type=int, default=200, help="validation pairs, scored after each epoch (default 200)")
+    p.add_argument("--n-test", type=int, default=1000, help="test pairs built with the split (part of the cache key; default 1000)")
+    p.add_argument("--epochs", type=int, default=10, help="passes over the training pairs (default 10)")
+    p.add_argument("--batch-size", type=int, default=32, help="pairs per optimiser step (default 32)")
+    p.add_argument("--lr", type=float, default=2e-3, help="Adam learning rate of the generator (default 2e-3)")
+    p.add_argument("--lr-discriminator", type=float, default=2e-4,
+                   help="pix2pix: Adam learning rate of the discriminator (default 2e-4)")
     p.add_argument("--beta1", type=float, default=0.5, help="Adam beta1 of the generator (pix2pix: 0.5)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the pairs, the weights and the batches (default 0)")
     p.add_argument("--unknown-weight", type=float, default=2.0, help="L2 weight on cells unknown in m_t")
     p.add_argument("--recon-weight", type=float, default=100.0, help="pix2pix: weight of the L2 term")
     p.add_argument("--gan-weight", type=float, default=1.0, help="pix2pix: weight of the adversarial term")
     p.add_argument("--no-augment", action="store_true", help="no flips / rot90")
     p.add_argument("--flips-only", action="store_true", help="augment by flips only, no transposes (HouseExpo)")
-    p.add_argument("--base-channels", type=int, default=16)
-    p.add_argument("--max-channels", type=int, default=128)
-    p.add_argument("--depth", type=int, default=4)
-    p.add_argument("--dropout", type=float, default=0.2)
+    p.add_argument("--base-channels", type=int, default=16, help="channels of the first U-net level (default 16)")
+    p.add_argument("--max-channels", type=int, default=128, help="channels of the deeper levels at most (default 128)")
+    p.add_argument("--depth", type=int, default=4, help="U-net levels; the map side must divide by 2^depth (default 4)")
+    p.add_argument("--dropout", type=float, default=0.2,
+                   help="dropout probability, kept on when sampling completions (default 0.2)")
     p.add_argument("--dropout-levels", type=int, default=2, help="innermost decoder levels that carry dropout")
     p.add_argument("--free-weight", type=float, default=1.0, help="L2 weight factor on cells whose target is free")
     p.add_argument("--ema", type=float, default=0.0, help="EMA decay of the generator weights (0: off), e.g. 0.999")
     p.add_argument("--max-minutes", type=float, default=None, help="stop after this wall time (ends the epoch)")
-    p.add_argument("--max-steps", type=int, default=None)
+    p.add_argument("--max-steps", type=int, default=None, help="stop after this many optimiser steps")
     p.add_argument("--init-from", default=None, help="initialise the generator from this checkpoint")
     p.add_argument("--resume", action="store_true", help="continue from OUT/last")
     p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu, cuda")
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
     p.add_argument("--houseexpo", default=None, help="json.tar.gz (default: installed, then ../shared/data)")
     p.add_argument("--cache", default=None, help="pair cache directory (default: <data>/cache/houseexpo-N)")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)
 
 
 def cmd_experiment(args: argparse.Namespace) -> int:
     """``mcnkit experiment exp1 --out DIR``."""
+    from mcnkit.completion.checkpoint import CheckpointError
     from mcnkit.completion.exp1 import Exp1Config, run_exp1
 
     try:
@@ -127,9 +134,9 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         )
         table = run_exp1(cfg)
     except (CheckpointError, ValueError) as err:
-        return fail("experiment", err)
+        return fail("experiment exp1", err)
     except (FileNotFoundError, PermissionError) as err:
-        return fail("experiment", f"{err.filename}: {err.strerror}")
+        return fail("experiment exp1", f"{err.filename}: {err.strerror}")
     print(table)
     return 0
 
@@ -141,10 +148,10 @@ def add_exp1_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--n-test", type=int, default=100, help="HouseExpo test maps (paper: 100; up to 1000)")
     p.add_argument("--n-train", type=int, default=16000, help="HouseExpo pair split to read (cache key)")
     p.add_argument("--samples", type=int, default=4, help="samples per example in the figure")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--houseexpo", default=None)
-    p.add_argument("--cache", default=None)
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--seed", type=int, default=0, help="seed of the test-map draw and of the samples (default 0)")
+    p.add_argument("--houseexpo", default=None, help="HouseExpo json.tar.gz (default: installed, then ../shared/data)")
+    p.add_argument("--cache", default=None, help="pair cache directory (default: <data>/cache/houseexpo-N)")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

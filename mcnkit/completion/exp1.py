@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from mcnkit.completion.checkpoint import load_generator
 from mcnkit.completion.data import load_domain_pairs
 from mcnkit.completion.nets import UNet
+from mcnkit.completion.registry import default_weights_dir
 from mcnkit.completion.retrieval import retrieve
 from mcnkit.completion.sample import complete, sample_completions
 from mcnkit.completion.scores import score_maps
@@ -51,11 +52,6 @@ PAPER = """| (A) pix2pix | 0.5831 | 0.8613 | 0.3762 | 0.4939 |
 | (D) training map with highest precision | 0.4893 | 0.8026 | 0.1753 | 0.2734 |
 | (A) pix2pix trained on HOME'S | 0.5065 | 0.8537 | 0.2222 | 0.3481 |
 | (B) U-net trained on HOME'S | 0.5257 | 0.7915 | 0.2976 | 0.4286 |"""
-
-
-def default_weights_dir() -> Path:
-    """``mcnkit/weights`` inside the installed package."""
-    return Path(__file__).resolve().parents[1] / "weights"
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
-__all__ = ["PositiveClass", "Scores", "mean_ci95", "miou_unknown", "score_maps"]
+__all__ = ["PositiveClass", "Scores", "f_per_map", "mean_ci95", "miou_unknown", "score_maps"]
 
 PositiveClass = Literal["free", "occupied"]
 F64 = NDArray[np.float64]
@@ -103,6 +103,21 @@ def miou_unknown(
     return per_map, float(np.mean(pooled)) if pooled else float("nan")
 
 
+def _counts(pred: NDArray[np.floating], tgt: NDArray[np.floating], positive: PositiveClass) -> tuple[F64, F64, F64]:
+    """Per map: true positives, false positives, false negatives of class ``positive``."""
+    v = _VALUE[positive]
+    p, t = pred == v, tgt == v
+    def count(m: NDArray[np.bool_]) -> F64:
+        return m.sum(axis=(-2, -1)).astype(np.float64)
+    return count(p & t), count(p & ~t), count(~p & t)
+
+
+def f_per_map(prediction: NDArray[np.floating], target: NDArray[np.floating], positive: PositiveClass = "free") -> F64:
+    """The F-measure of each ternary map (N, H, W) against m_T (N,): what :func:`score_maps` averages."""
+    tp, fp, fn = _counts(np.asarray(prediction), np.asarray(target), positive)
+    return _f(_safe_div(tp, tp + fp), _safe_div(tp, tp + fn))
+
+
 def score_maps(
     prediction: NDArray[np.floating],
     target: NDArray[np.floating],
@@ -116,11 +131,7 @@ def score_maps(
         pred, tgt, partial = pred[None], tgt[None], np.asarray(partial)[None]
     if pred.shape != tgt.shape or pred.shape != np.asarray(partial).shape:
         raise ValueError(f"shapes differ: prediction {pred.shape}, target {tgt.shape}, partial {np.shape(partial)}")
-    v = _VALUE[positive]
-    p, t = pred == v, tgt == v
-    tp = (p & t).sum(axis=(-2, -1))
-    fp = (p & ~t).sum(axis=(-2, -1))
-    fn = (~p & t).sum(axis=(-2, -1))
+    tp, fp, fn = _counts(pred, tgt, positive)
     n_cells = pred.shape[-1] * pred.shape[-2]
     tn = n_cells - tp - fp - fn
     acc = (tp + tn) / n_cells

@@ -12,13 +12,15 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mcnkit.cli import fail
 from mcnkit.datasets.houseexpo import HOUSEEXPO_SHA256, default_data_dir, find_houseexpo, install_houseexpo
-from mcnkit.datasets.pairs import PairConfig, PairSet, load_or_build_houseexpo_pairs, pair_stats, procedural_pairs
-from mcnkit.io.errors import LogError
+
+if TYPE_CHECKING:
+    from mcnkit.datasets.pairs import PairSet
 
 __all__ = ["add_data_parser", "add_simulate_parser", "cmd_examples", "cmd_install", "cmd_pairs", "cmd_simulate"]
 
@@ -39,6 +41,8 @@ def cmd_install(args: argparse.Namespace) -> int:
 
 
 def _stats_line(name: str, pairs: PairSet) -> dict[str, object]:
+    from mcnkit.datasets.pairs import pair_stats
+
     st = pair_stats(pairs)
     return {
         "split": name,
@@ -51,6 +55,8 @@ def _stats_line(name: str, pairs: PairSet) -> dict[str, object]:
 
 def cmd_pairs(args: argparse.Namespace) -> int:
     """``mcnkit data pairs --out DIR``: build (or reuse the cached) pairs and print counts and statistics."""
+    from mcnkit.datasets.pairs import PairConfig, load_or_build_houseexpo_pairs, procedural_pairs
+
     t0 = time.perf_counter()
     try:
         if args.domain == "procedural":
@@ -96,6 +102,8 @@ def cmd_examples(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from mcnkit.datasets.pairs import PairConfig, load_or_build_houseexpo_pairs, procedural_pairs
+
     rows: list[tuple[str, PairSet]] = []
     try:
         source = _houseexpo_source(args)
@@ -139,7 +147,7 @@ def add_data_parser(subparsers: argparse._SubParsersAction) -> None:
     sub = data.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
 
     inst = sub.add_parser("install", help="install a dataset (HouseExpo) from a path or URL, checking its sha256")
-    inst.add_argument("dataset", choices=["houseexpo"])
+    inst.add_argument("dataset", choices=["houseexpo"], help="the dataset (houseexpo: HouseExpo floor plans)")
     inst.add_argument("--from", dest="source", required=True, help="json.tar.gz path, file:// or http(s):// URL")
     inst.add_argument("--sha256", default=None, help=f"expected digest (default {HOUSEEXPO_SHA256[:12]}…; '' = skip)")
     inst.add_argument("--dest", default=None, help="data directory (default: $MCNKIT_DATA or ./data)")
@@ -147,21 +155,23 @@ def add_data_parser(subparsers: argparse._SubParsersAction) -> None:
 
     pairs = sub.add_parser("pairs", help="build (or reuse the cached) 64x64 (m_t, m_T) pairs")
     pairs.add_argument("--out", required=True, help="cache directory")
-    pairs.add_argument("--domain", choices=["houseexpo", "procedural"], default="houseexpo")
+    pairs.add_argument("--domain", choices=["houseexpo", "procedural"], default="houseexpo",
+                       help="houseexpo: Pseudo-SLAM scans of HouseExpo plans (the paper); procedural: generated "
+                            "apartments with HOME'S-style masks (default houseexpo)")
     pairs.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
     pairs.add_argument("--train-list", help="official train id list (default: next to the archive)")
     pairs.add_argument("--test-list", help="official test id list (default: next to the archive)")
-    pairs.add_argument("--train", type=int, default=5000)
-    pairs.add_argument("--val", type=int, default=200)
-    pairs.add_argument("--test", type=int, default=100)
-    pairs.add_argument("--seed", type=int, default=0)
+    pairs.add_argument("--train", type=int, default=5000, help="training pairs (default 5000)")
+    pairs.add_argument("--val", type=int, default=200, help="validation pairs (default 200)")
+    pairs.add_argument("--test", type=int, default=100, help="test pairs (default 100)")
+    pairs.add_argument("--seed", type=int, default=0, help="seed of the split shuffle and the scans (default 0)")
     pairs.add_argument("--no-progress", action="store_true", help="no progress bar")
     pairs.set_defaults(func=cmd_pairs)
 
     ex = sub.add_parser("examples", help="write a PNG grid of example pairs (m_t, mask, m_T) for both domains")
     ex.add_argument("--out", required=True, help="PNG file")
-    ex.add_argument("--n", type=int, default=6, help="examples per domain")
-    ex.add_argument("--seed", type=int, default=0)
+    ex.add_argument("--n", type=int, default=6, help="examples per domain (default 6)")
+    ex.add_argument("--seed", type=int, default=0, help="seed of the drawn examples (default 0)")
     ex.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
     ex.add_argument("--cache", help="pair cache directory for the HouseExpo examples (default: <data>/cache/examples)")
     ex.set_defaults(func=cmd_examples)
@@ -169,6 +179,7 @@ def add_data_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``mcnkit simulate --map SPEC --out PATH``: simulate a robot on a plan and write the log."""
+    from mcnkit.io.errors import LogError
     from mcnkit.sim import LidarConfig, SimConfig, plan_raster, simulate, write_sim_log
 
     try:
@@ -203,16 +214,17 @@ def add_simulate_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("simulate", help="simulate a robot with a lidar on a floor plan and write a log")
     p.add_argument("--map", required=True, help="houseexpo:ID or procedural:SEED")
     p.add_argument("--out", required=True, help="FILE.bag, FILE.mcap or a directory (rosbag2)")
-    p.add_argument("--format", choices=["ros1", "ros2-sqlite3", "ros2-mcap", "mcap"], help="default: from --out")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--beams", type=int, default=360)
-    p.add_argument("--fov-deg", type=float, default=360.0)
-    p.add_argument("--range-max", type=float, default=8.0, help="metres")
+    p.add_argument("--format", choices=["ros1", "ros2-sqlite3", "ros2-mcap", "mcap"],
+                   help="log format (default: from --out: .bag → ros1, .mcap → mcap, a folder → ros2-mcap)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the robot's path and of the sensor noise (default 0)")
+    p.add_argument("--beams", type=int, default=360, help="lidar beams per scan (default 360)")
+    p.add_argument("--fov-deg", type=float, default=360.0, help="lidar field of view in degrees (default 360)")
+    p.add_argument("--range-max", type=float, default=8.0, help="lidar range in metres (default 8)")
     p.add_argument("--range-noise", type=float, default=0.01, help="range noise std (m)")
     p.add_argument("--dropout", type=float, default=0.0, help="probability that a beam returns nothing")
     p.add_argument("--odometry-noise", type=float, default=1.0, help="scale of the odometry noise (0 = perfect)")
-    p.add_argument("--duration", type=float, default=600.0, help="at most this many seconds")
+    p.add_argument("--duration", type=float, default=600.0, help="simulated seconds at most (default 600)")
     p.add_argument("--resolution", type=float, default=0.05, help="ground-truth raster resolution (m)")
     p.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
-    p.add_argument("--overwrite", action="store_true")
+    p.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     p.set_defaults(func=cmd_simulate)

@@ -10,44 +10,60 @@ Each writes a CSV, a Markdown report (also printed) and PNG figures into ``--out
 from __future__ import annotations
 
 import argparse
+import importlib
 from collections.abc import Callable
 from typing import Any
 
 __all__ = ["add_experiment_parser"]
 
 
-def _runner(run: Callable[[Any], str], config_from_args: Callable[[argparse.Namespace], Any]
-            ) -> Callable[[argparse.Namespace], int]:
-    """The command function of one experiment: build its config, run it, print its Markdown report."""
+def _runner(run: str, config_from_args: Callable[[argparse.Namespace], Any]) -> Callable[[argparse.Namespace], int]:
+    """The command function of one experiment: build its config, run it (``run``: ``module:function``, imported
+    only then), print its Markdown report."""
 
     def command(args: argparse.Namespace) -> int:
         from mcnkit.cli import fail
-        from mcnkit.completion.checkpoint import CheckpointError
+        from mcnkit.completion.registry import CheckpointError
 
+        module, name = run.split(":")
         try:
-            print(run(config_from_args(args)))
+            config = config_from_args(args)
+            print(getattr(importlib.import_module(module), name)(config))
         except (CheckpointError, ValueError) as err:
-            return fail("experiment", err)
+            return fail(f"experiment {args.experiment}", err)
         return 0
 
     return command
 
 
+_DESCRIPTION = """The paper's experiments, each with its own options ('mcnkit experiment NAME --help'):
+
+  exp1  map completion from one scan, on HouseExpo test maps
+  exp2  MCN-SLAM on simulated HouseExpo houses, at the first filter update and at T-5
+  exp3  the real labs, MIT CSAIL and the Intel lab, along the run
+
+Each writes a CSV, a Markdown report (also printed) and PNG figures into --out."""
+
+
 def add_experiment_parser(subparsers: Any) -> None:
     """Adds ``experiment`` with one sub-command per experiment."""
     from mcnkit.completion.cli import add_exp1_arguments, cmd_experiment
-    from mcnkit.experiments.exp2 import add_exp2_arguments, exp2_config_from_args, run_exp2
-    from mcnkit.experiments.exp3 import add_exp3_arguments, exp3_config_from_args, run_exp3
+    from mcnkit.experiments.options import (
+        add_exp2_arguments,
+        add_exp3_arguments,
+        exp2_config_from_args,
+        exp3_config_from_args,
+    )
 
     p = subparsers.add_parser("experiment", help="run one of the paper's experiments (exp1, exp2, exp3)",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                              description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="experiment", metavar="NAME", required=True)
     e1 = sub.add_parser("exp1", help="map completion from one scan, HouseExpo test maps (paper Exp 1)")
     add_exp1_arguments(e1)
     e1.set_defaults(func=cmd_experiment)
     e2 = sub.add_parser("exp2", help="MCN-SLAM on simulated HouseExpo houses: iteration 1 and T-5 (paper Exp 2)")
     add_exp2_arguments(e2)
-    e2.set_defaults(func=_runner(run_exp2, exp2_config_from_args))
+    e2.set_defaults(func=_runner("mcnkit.experiments.exp2:run_exp2", exp2_config_from_args))
     e3 = sub.add_parser("exp3", help="the real labs, MIT CSAIL and Intel, along the run (paper Exp 3)")
     add_exp3_arguments(e3)
-    e3.set_defaults(func=_runner(run_exp3, exp3_config_from_args))
+    e3.set_defaults(func=_runner("mcnkit.experiments.exp3:run_exp3", exp3_config_from_args))

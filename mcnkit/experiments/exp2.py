@@ -36,12 +36,11 @@ it.
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +61,7 @@ from mcnkit.experiments.common import (
     run_slam,
     write_csv,
 )
+from mcnkit.experiments.options import Exp2Config, add_exp2_arguments, exp2_config_from_args
 from mcnkit.grid import pool_to_window
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec
 
@@ -90,52 +90,6 @@ PAPER = """| (A) pix2pix | 1 | 0.7864 | 0.4486 | 0.7072 | 0.4858 |
 | (B) U-net | T−5 | 0.8718 | 0.6306 | 0.7063 | 0.6429 |"""
 CURVE_FRACTIONS = tuple(round(0.1 * i, 1) for i in range(11))
 _CACHE_VERSION = 2
-
-
-@dataclass(frozen=True)
-class Exp2Config:
-    """Experiment 2 settings (see the module docstring for the protocol)."""
-
-    out_dir: str = "results/exp2"
-    n_maps: int = 10
-    """Houses (the paper: 10; 50 for confidence intervals)."""
-    samples: int = 8
-    """K completions per map (dropout on)."""
-    seed: int = 0
-    threads: int = 1
-    particles: int = 30
-    models: tuple[str, ...] = ("pix2pix", "unet", "unet-explore")
-    """Completion networks: short names of :func:`mcnkit.mcn.load_model` or checkpoint paths."""
-    late: int = 5
-    """The late iteration is T − ``late``."""
-    size: int = 64
-    n_train: int = 16000
-    """HouseExpo pair split to read (cache key of Exp 1): its training maps are the bank of (D)."""
-    n_test_pool: int = 1000
-    """Test pairs in that split (cache key); the houses are its first ones."""
-    houseexpo: str | None = None
-    cache_dir: str | None = None
-    maps: tuple[str, ...] = ()
-    """Explicit plans (``houseexpo:ID`` / ``procedural:SEED``) instead of the HouseExpo test list."""
-    lidar_range_m: float = 8.0
-    lidar_fov_deg: float = 360.0
-    lidar_beams: int = 360
-    max_duration_s: float = 600.0
-    log_format: str = "bag"
-    """Write each simulated run as this format and read it back (``""``: use the frames directly)."""
-    n_examples: int = 3
-    curve: bool = True
-    """Also score SLAM alone, the networks and the all-free fill along the run (``exp2_curve.*``)."""
-    reuse_runs: bool = True
-    """Reuse cached SLAM results (``runs_dir/*.npz``) made with the same settings."""
-    runs_dir: str | None = None
-    """Where each house's SLAM result is cached (default ``out_dir/runs``)."""
-    progress: bool = True
-    extra_notes: tuple[str, ...] = field(default_factory=tuple)
-
-    def __post_init__(self) -> None:
-        if self.n_maps < 1 or self.samples < 1 or self.particles < 1 or self.late < 0 or self.threads < 1:
-            raise ValueError(f"invalid Exp2Config: {self}")
 
 
 @dataclass
@@ -595,36 +549,3 @@ def run_exp2(cfg: Exp2Config) -> str:
     md = _markdown(cfg, rows, houses, notes, curve)
     (out / "exp2.md").write_text(md)
     return md
-
-
-def add_exp2_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Adds Experiment 2's options (``--out`` included) to ``parser``."""
-    d = Exp2Config()
-    parser.add_argument("--out", required=True, help="output directory (exp2.csv, exp2.md, PNG figures)")
-    parser.add_argument("--n-maps", type=int, default=d.n_maps, help="HouseExpo test houses (paper 10; 50 for CIs)")
-    parser.add_argument("--samples", type=int, default=d.samples, help="K completions per map (dropout on)")
-    parser.add_argument("--seed", type=int, default=d.seed, help="seed of the simulation, SLAM and sampling")
-    parser.add_argument("--threads", type=int, default=d.threads, help="torch CPU threads")
-    parser.add_argument("--particles", type=int, default=d.particles, help="FastSLAM particles")
-    parser.add_argument("--models", nargs="+", default=list(d.models),
-                        help="completion networks: unet, pix2pix, unet-explore (trained on exploration maps) or "
-                             "checkpoint paths")
-    parser.add_argument("--range", type=float, default=d.lidar_range_m, dest="lidar_range_m",
-                        help="simulated lidar range [m]")
-    parser.add_argument("--n-train", type=int, default=d.n_train, help="HouseExpo pair split to read (cache key)")
-    parser.add_argument("--houseexpo", default=None, help="HouseExpo json.tar.gz (default: installed / shared)")
-    parser.add_argument("--cache", default=None, help="pair cache directory (default: data/cache/houseexpo-N)")
-    parser.add_argument("--maps", nargs="+", default=None, help="explicit plans (houseexpo:ID, procedural:SEED)")
-    parser.add_argument("--no-curve", action="store_true", help="skip the scores along the run")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    return parser
-
-
-def exp2_config_from_args(args: argparse.Namespace) -> Exp2Config:
-    """The :class:`Exp2Config` of options parsed with :func:`add_exp2_arguments`."""
-    return Exp2Config(out_dir=args.out, n_maps=args.n_maps, samples=args.samples, seed=args.seed,
-                      threads=args.threads, particles=args.particles, models=tuple(args.models),
-                      lidar_range_m=args.lidar_range_m, n_train=args.n_train, houseexpo=args.houseexpo,
-                      cache_dir=args.cache, maps=tuple(args.maps or ()), curve=not args.no_curve,
-                      progress=not args.quiet)
-

@@ -27,7 +27,6 @@ Outputs in ``out_dir``: ``exp3.csv`` (one row per log × point × method × vari
 
 from __future__ import annotations
 
-import argparse
 import os
 import tempfile
 import time
@@ -52,6 +51,7 @@ from mcnkit.experiments.common import (
     run_slam,
     write_csv,
 )
+from mcnkit.experiments.options import Exp3Config, add_exp3_arguments, exp3_config_from_args
 from mcnkit.grid import pool_to_window
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, Frame, GridSpec, TernaryMap
 
@@ -76,35 +76,6 @@ def default_logs(reallab: str | os.PathLike[str] | None = None) -> tuple[str, ..
     """The MIT CSAIL and Intel Research Lab logs (``$MCNKIT_SHARED_DATA/reallab`` or ``../shared/data/reallab``)."""
     root = Path(reallab) if reallab else _reallab_dir()
     return (str(root / "mit-csail" / "mit-csail.clf"), str(root / "intel" / "intel-corrected.log.gz"))
-
-
-@dataclass(frozen=True)
-class Exp3Config:
-    """Experiment 3 settings (see the module docstring for the protocol)."""
-
-    out_dir: str = "results/exp3"
-    logs: tuple[str, ...] = ()
-    """Robot logs (anything :func:`mcnkit.io.open_log` reads); empty: :func:`default_logs`."""
-    points: tuple[float, ...] = (0.1, 0.25, 0.5, 0.75, 0.9)
-    """Where along the run to complete, as fractions of the filter updates."""
-    window_m: float = 16.0
-    size: int = 64
-    samples: int = 8
-    models: tuple[str, ...] = ("unet", "unet-explore", "pix2pix")
-    particles: int = 30
-    seed: int = 0
-    threads: int = 1
-    max_scans: int | None = None
-    """Use only the first scans of each log (tests, quick looks)."""
-    convert: bool = True
-    """Convert each log to a ROS1 bag in a temporary directory and read that back."""
-    progress: bool = True
-
-    def __post_init__(self) -> None:
-        if not self.points or any(not 0.0 <= p <= 1.0 for p in self.points):
-            raise ValueError(f"points must be fractions in [0, 1], got {self.points}")
-        if self.samples < 1 or self.particles < 1 or self.window_m <= 0 or self.threads < 1:
-            raise ValueError(f"invalid Exp3Config: {self}")
 
 
 @dataclass
@@ -355,33 +326,3 @@ def run_exp3(cfg: Exp3Config) -> str:
     md = _markdown(cfg, rows, infos, time.perf_counter() - t0)
     (out / "exp3.md").write_text(md)
     return md
-
-
-def add_exp3_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Adds Experiment 3's options (``--out`` included) to ``parser``."""
-    d = Exp3Config()
-    parser.add_argument("--out", required=True, help="output directory (exp3.csv, exp3.md, PNG figures)")
-    parser.add_argument("--logs", nargs="+", default=None,
-                        help="robot logs (default: MIT CSAIL and Intel in ../shared/data/reallab)")
-    parser.add_argument("--points", type=float, nargs="+", default=list(d.points),
-                        help="fractions of the filter updates at which to complete")
-    parser.add_argument("--window", type=float, default=d.window_m, help="robot-centred window side [m]")
-    parser.add_argument("--samples", type=int, default=d.samples, help="K completions per window (dropout on)")
-    parser.add_argument("--models", nargs="+", default=list(d.models),
-                        help="completion networks: unet, unet-explore, pix2pix or checkpoint paths")
-    parser.add_argument("--particles", type=int, default=d.particles, help="FastSLAM particles")
-    parser.add_argument("--seed", type=int, default=d.seed, help="seed of SLAM and sampling")
-    parser.add_argument("--threads", type=int, default=d.threads, help="torch CPU threads")
-    parser.add_argument("--max-scans", type=int, default=None, help="only the first scans of each log")
-    parser.add_argument("--no-convert", action="store_true", help="read the logs directly (no ROS1 bag)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    return parser
-
-
-def exp3_config_from_args(args: argparse.Namespace) -> Exp3Config:
-    """The :class:`Exp3Config` of options parsed with :func:`add_exp3_arguments`."""
-    return Exp3Config(out_dir=args.out, logs=tuple(args.logs or ()), points=tuple(args.points), window_m=args.window,
-                      samples=args.samples, models=tuple(args.models), particles=args.particles, seed=args.seed,
-                      threads=args.threads, max_scans=args.max_scans, convert=not args.no_convert,
-                      progress=not args.quiet)
-

@@ -41,6 +41,11 @@ SLAM-corrected pose (kept as ground truth) and the raw odometry is rebuilt by ch
 sometimes several in one log).  A 1 cm bin of readings within the top 10 % of the span that holds more than
 0.05 % of all readings (and at least 20) is a sentinel, and the scanner's ``range_max_m`` is set 2 cm below the
 smallest one; otherwise ``range_max_m`` is the largest reading.
+
+**Every line stays reachable**: :meth:`CarmenLog.messages` gives the decoded streams (``/scan``: :class:`Scan`,
+``/odom`` and ``/ground_truth``: :class:`Pose2D`, at the frames' stamps) and, by keyword (``FLASER``, ``ODOM``,
+``PARAM``, ``NEFF``, ...; :attr:`CarmenLog.keywords` counts them), every line of that type as a
+:class:`CarmenRecord`, in log order.
 """
 
 from __future__ import annotations
@@ -51,6 +56,7 @@ from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,7 +66,7 @@ from mcnkit.io.base import LogReader, TopicInfo
 from mcnkit.io.errors import LogError, warn_skipped
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
 
-__all__ = ["CarmenLog", "is_carmen", "repair_stamps"]
+__all__ = ["CarmenLog", "CarmenRecord", "is_carmen", "repair_stamps"]
 
 _FRONT = ("FLASER", "ROBOTLASER1", "RAWLASER1")
 _REAR = ("RLASER", "ROBOTLASER2", "RAWLASER2", "RAWLASER3", "RAWLASER4")
@@ -118,6 +124,27 @@ def _stamp_ns(text: str) -> int | None:
 
 def _floats(tokens: list[str]) -> NDArray[np.float64]:
     return np.array([float(t) for t in tokens], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class CarmenRecord:
+    """One line of a CARMEN log as written: its keyword, the words after it, where it is, and its own stamp."""
+
+    keyword: str
+    fields: tuple[str, ...]
+    """The words after the keyword, as text (a ``PARAM`` line's name and value, a ``FLASER`` line's numbers...)."""
+    line: int
+    """1-based line number in the (decompressed) log."""
+    stamp_ns: int | None
+    """The line's IPC stamp (the third word from the end, before host and logger stamp), when it has one."""
+
+
+def _line_stamp(tok: list[str]) -> int | None:
+    """The IPC stamp of a line ending in ``ipc_timestamp host logger_timestamp``, else None."""
+    if len(tok) < 4 or _stamp_ns(tok[-2]) is not None:
+        return None
+    ipc, logger = _stamp_ns(tok[-3]), _stamp_ns(tok[-1])
+    return ipc if ipc is not None and logger is not None else None
 
 
 @dataclass
@@ -389,6 +416,7 @@ class CarmenLog(LogReader):
         if problem is not None and self.format != "dpslam":
             warn_skipped(path, problem)
         self._gt: Trajectory | None = None
+        self._keywords: dict[str, int] | None = None
         if self.format == "carmen" and _is_corrected_variant(scans, p, key):
             self.format = "carmen-corrected"
             odom = _rebuild_raw_odometry(scans, p)
@@ -461,3 +489,43 @@ class CarmenLog(LogReader):
     def ground_truth(self) -> Trajectory | None:
         """The corrected trajectory of a Radish corrected log (the laser poses on its scan lines)."""
         return self._gt
+
+    @property
+    def keywords(self) -> dict[str, int]:
+        """How many lines of each keyword the log holds (``#`` comments not counted), in order of first use."""
+        if self._keywords is None:
+            counts: Counter[str] = Counter()
+            for line in _open_text(self.path):
+                word = line.split(maxsplit=1)[0] if line.strip() else ""
+                if word and not word.startswith("#"):
+                    counts[word] += 1
+            self._keywords = dict(counts)
+        return self._keywords
+
+    def messages(self, topic: str) -> Iterator[tuple[int, Any]]:
+        """``(stamp ns, message)`` pairs of one stream, in log order (nothing for a topic the log does not hold).
+
+        ``/scan`` gives each frame's :class:`Scan`, ``/odom`` its odometry :class:`Pose2D` and ``/ground_truth``
+        the corrected pose (Radish corrected logs), at the frames' stamps.  A keyword (``FLASER``, ``ODOM``,
+        ``PARAM``, ``NEFF``, ...) gives every line of that type as a :class:`CarmenRecord`, malformed ones included;
+        the stamp is the line's own IPC stamp, else the last one before it in the log (0 before the first)."""
+        if topic == "/scan":
+            for frame in self.frames():
+                yield frame.stamp_ns, frame.scan
+        elif topic == "/odom":
+            for frame in self.frames():
+                yield frame.stamp_ns, frame.odom
+        elif topic == "/ground_truth":
+            if self._gt is not None:
+                for stamp, pose in zip(self._gt.stamps_ns, self._gt.poses, strict=True):
+                    yield int(stamp), Pose2D.from_array(pose)
+        else:
+            last = 0
+            for lineno, line in enumerate(_open_text(self.path), start=1):
+                tok = line.split()
+                if not tok:
+                    continue
+                stamp = _line_stamp(tok)
+                last = stamp if stamp is not None else last
+                if tok[0] == topic:
+                    yield last, CarmenRecord(tok[0], tuple(tok[1:]), lineno, stamp)

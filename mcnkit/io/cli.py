@@ -7,14 +7,12 @@ import json
 import math
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from tqdm import tqdm
-
-from mcnkit.io.base import LogReader
 from mcnkit.io.content import FORMATS, LogContent
-from mcnkit.io.open import open_log
-from mcnkit.io.writers import infer_format, write_log
+
+if TYPE_CHECKING:
+    from mcnkit.io.base import LogReader
 
 __all__ = ["add_convert_parser", "add_info_parser", "describe", "print_info"]
 
@@ -82,6 +80,8 @@ def print_info(info: dict[str, Any]) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
+    from mcnkit.io.open import open_log
+
     with open_log(args.log, scan_topic=args.scan_topic, odom=args.odom) as log:
         info = describe(log)
     if args.json:
@@ -106,6 +106,10 @@ def add_info_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def _convert(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from mcnkit.io.open import open_log
+    from mcnkit.io.writers import infer_format, write_log
     from mcnkit.outputs import Output, check_outputs
 
     check_outputs([args.input], [Output(args.output, folder=None)], overwrite=args.overwrite)

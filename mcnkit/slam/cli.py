@@ -1,7 +1,7 @@
-"""``mcnkit slam`` and ``mcnkit eval``: run the filter on a log, and score trajectories.
+"""``mcnkit slam``: run the filter on a log (``mcnkit eval`` is :mod:`mcnkit.slam.evaluate`).
 
-The lead's dispatcher (``mcnkit/cli.py``) wires these in with :func:`add_slam_parser` and
-:func:`add_eval_parser`; each sets ``func`` to a function ``(args) -> exit code``.
+The dispatcher (``mcnkit/cli.py``) wires it in with :func:`add_slam_parser`, which sets ``func`` to a function
+``(args) -> exit code``.
 
 Outputs of ``mcnkit slam LOG --out DIR``:
 
@@ -23,25 +23,34 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from mcnkit.metrics import (
-    absolute_trajectory_error,
-    read_relations,
-    read_tum,
-    relations_error,
-    relative_pose_error,
-)
 from mcnkit.runconfig import add_dataclass_flags
 from mcnkit.slam.config import SlamConfig
-from mcnkit.slam.fastslam import FastSlam
 
-__all__ = ["add_eval_parser", "add_slam_parser", "run_eval_ate", "run_eval_relations", "run_slam"]
+__all__ = ["add_slam_parser", "resolve_slam_config", "run_slam"]
+
+_DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robot log and write into --out:
+
+  trajectory.tum            the best particle's pose at every scan (corrected at the filter updates,
+                            tracked by scan matching in between)
+  trajectory_online.tum     at every scan the pose of the particle that was best then (causal)
+  trajectory_gmapping.tum   gmapping's convention: last corrected pose plus the odometry since
+  trajectory_matched.tum    every scan matched against the final map (uses later information)
+  trajectory_smoothed.tum   each correction spread over the interval before it
+  map.pgm, map.yaml         the best particle's map (ROS map_server: occupied 0, free 254, unknown 205), map.png
+  summary.json              scans, filter updates, resamplings, CPU and wall time, peak memory, the configuration
+
+With --rrd every step is also recorded for Rerun.  Score a trajectory with 'mcnkit eval'.
+
+Settings: every SlamConfig field is a --slam.FIELD flag (below); --config FILE reads them from a TOML file
+([slam] table, seed = N) or from a run's summary.json, which holds the full configuration, so
+'mcnkit slam LOG --config OLD/summary.json --out NEW' repeats a run exactly.
+
+Ctrl-C or SIGTERM stops after the scan at hand: --out and --rrd get the results so far (summary.json says
+"interrupted": true), exit code 130 / 143.  Outputs never replace the log; an existing --rrd, or an --out
+folder that is not empty, is replaced only with --overwrite."""
 
 
 
@@ -50,7 +59,7 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
     p: argparse.ArgumentParser = subparsers.add_parser(
         "slam",
         help="run grid FastSLAM (gmapping-class) on a robot log",
-        description=__doc__,
+        description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("log", type=Path, help="a log open_log reads (CARMEN .clf/.log[.gz], .bag, rosbag2, .mcap)")
@@ -70,25 +79,6 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="with --rrd: log the best particle's map every N filter updates (default 10)")
     add_dataclass_flags(p, SlamConfig, "slam")
     p.set_defaults(func=run_slam)
-    return p
-
-
-def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Adds ``eval relations TRAJ RELATIONS [--json]`` and ``eval ate TRAJ REFERENCE [--json]``."""
-    p: argparse.ArgumentParser = subparsers.add_parser("eval", help="score a TUM trajectory")
-    sub = p.add_subparsers(dest="eval_command", required=True)
-    r = sub.add_parser("relations", help="Kümmerle et al. 2009 relations error (translation m, rotation deg)")
-    r.add_argument("trajectory", type=Path, help="estimated trajectory, TUM format")
-    r.add_argument("relations", type=Path, help="relations file: t1 t2 x y z roll pitch yaw per line")
-    r.add_argument("--tolerance-s", type=float, default=0.005, help="stamp matching tolerance (default 0.005)")
-    r.add_argument("--json", action="store_true", help="print JSON instead of text")
-    r.set_defaults(func=run_eval_relations)
-    a = sub.add_parser("ate", help="ATE (after rigid 2-D alignment) and RPE against a reference trajectory")
-    a.add_argument("trajectory", type=Path, help="estimated trajectory, TUM format")
-    a.add_argument("reference", type=Path, help="reference trajectory, TUM format")
-    a.add_argument("--tolerance-s", type=float, default=0.005, help="stamp matching tolerance (default 0.005)")
-    a.add_argument("--json", action="store_true", help="print JSON instead of text")
-    a.set_defaults(func=run_eval_ate)
     return p
 
 
@@ -124,6 +114,8 @@ def resolve_slam_config(args: argparse.Namespace) -> tuple[SlamConfig, int]:
 def run_slam(args: argparse.Namespace) -> int:
     """Runs the filter over a log and writes trajectory, map and summary into ``args.out`` (also when interrupted:
     the results so far, ``"interrupted": true`` in ``summary.json``)."""
+    import numpy as np
+
     from mcnkit.cli import fail
     from mcnkit.drive import SIGNALS, ProgressSink, Sink, drive
     from mcnkit.io import open_log
@@ -131,6 +123,7 @@ def run_slam(args: argparse.Namespace) -> int:
     from mcnkit.outputs import Output, OutputError, check_outputs
     from mcnkit.runconfig import ConfigError
     from mcnkit.sinks import RecordingSink, SlamOutputs
+    from mcnkit.slam.fastslam import FastSlam
 
     try:
         config, seed = resolve_slam_config(args)
@@ -167,51 +160,4 @@ def run_slam(args: argparse.Namespace) -> int:
         f"CPU {summary['cpu_s']:.1f} s, wall {summary['wall_s']:.1f} s, peak RSS {summary['peak_rss_mb']:.0f} MB"
         f" -> {args.out}"
     )
-    return 0
-
-
-def _read(kind: str, reader: Any, path: Path) -> Any:
-    try:
-        return reader(path)
-    except (OSError, ValueError) as err:
-        print(f"mcnkit eval: cannot read {kind} {path}: {err}".splitlines()[0], file=sys.stderr)
-        return None
-
-
-def run_eval_relations(args: argparse.Namespace) -> int:
-    """Prints the relations error of a TUM trajectory."""
-    traj, rel = _read("trajectory", read_tum, args.trajectory), _read("relations", read_relations, args.relations)
-    if traj is None or rel is None:
-        return 2
-    err = relations_error(traj, rel, args.tolerance_s)
-    if args.json:
-        print(json.dumps(err.as_dict()))
-    else:
-        print(
-            f"translation {err.translation_mean_m:.4f} ± {err.translation_std_m:.4f} m, "
-            f"rotation {err.rotation_mean_deg:.3f} ± {err.rotation_std_deg:.3f} deg "
-            f"over {len(err.translation_m)} relations ({err.n_skipped} without a pose within {args.tolerance_s} s)"
-        )
-    return 0
-
-
-def run_eval_ate(args: argparse.Namespace) -> int:
-    """Prints ATE and RPE of a TUM trajectory against a reference TUM trajectory."""
-    traj, ref = _read("trajectory", read_tum, args.trajectory), _read("reference", read_tum, args.reference)
-    if traj is None or ref is None:
-        return 2
-    try:
-        ate = absolute_trajectory_error(traj, ref, args.tolerance_s)
-        rpe = relative_pose_error(traj, ref, args.tolerance_s)
-    except ValueError as err:
-        print(f"mcnkit eval: {err}", file=sys.stderr)
-        return 2
-    if args.json:
-        print(json.dumps({"ate": ate.as_dict(), "rpe": rpe.as_dict()}))
-    else:
-        print(
-            f"ATE rmse {ate.rmse_m:.4f} m (mean {ate.mean_m:.4f}, max {ate.max_m:.4f}) over {ate.n_matched} poses; "
-            f"RPE {rpe.translation_mean_m:.4f} ± {rpe.translation_std_m:.4f} m, "
-            f"{rpe.rotation_mean_deg:.3f} ± {rpe.rotation_std_deg:.3f} deg"
-        )
     return 0

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcnkit.slam.cli import add_eval_parser, add_slam_parser
+from mcnkit.slam.cli import add_slam_parser
+from mcnkit.slam.evaluate import add_eval_parser
 
 
 def _run(argv: list[str]) -> int:

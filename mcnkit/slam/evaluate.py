@@ -1,0 +1,197 @@
+"""``mcnkit eval``: score a trajectory, or write a log's ground truth as the TUM file the scores read.
+
+* ``eval relations TRAJ RELATIONS``: the Kümmerle et al. (2009) relations error;
+* ``eval ate TRAJ REFERENCE``: ATE after rigid 2-D alignment, and RPE;
+* ``eval groundtruth LOG OUT.tum``: the reference trajectory a log carries (a Radish "corrected" CARMEN log's
+  corrected poses, a bag's ground-truth topic, a simulated log's true path) as TUM.
+
+Scores refuse what they cannot match (exit 2 with the reason, see :mod:`mcnkit.metrics`): too few poses matched,
+stamps that repeat.  ``--match order`` pairs the k-th poses when the stamps carry no time but both trajectories
+hold one pose per scan of the same log.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mcnkit.metrics import Relations
+    from mcnkit.types import Trajectory
+
+__all__ = ["add_eval_parser", "run_eval_ate", "run_eval_groundtruth", "run_eval_relations", "write_ground_truth"]
+
+
+_DESCRIPTION = """Score a trajectory, or write a log's ground truth as the TUM file the scores read:
+
+  eval relations TRAJ RELATIONS   the Kümmerle et al. (2009) relations error
+  eval ate TRAJ REFERENCE         ATE after rigid 2-D alignment, and RPE
+  eval groundtruth LOG OUT.tum    the reference trajectory a log carries (a Radish corrected CARMEN log's
+                                  corrected poses, a ground-truth topic, a simulated log's true path)
+
+A score refuses (exit 2, with the reason) what it cannot match: too few poses or relations matched, stamps
+that repeat.  '--match order' pairs the k-th poses when the stamps carry no time but both trajectories hold
+one pose per scan of the same log."""
+
+
+def _add_matching_options(p: argparse.ArgumentParser, min_matched: int) -> None:
+    p.add_argument("--tolerance-s", type=float, default=0.005,
+                   help="stamp matching tolerance in seconds (default 0.005)")
+    p.add_argument("--min-fraction", type=float, default=0.5,
+                   help="refuse (exit 2) when less than this share of the reference poses / relations match "
+                        "(default 0.5)")
+    p.add_argument("--min-matched", type=int, default=min_matched,
+                   help=f"refuse (exit 2) when fewer than this many match (default {min_matched})")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+
+
+def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Adds ``eval relations``, ``eval ate`` and ``eval groundtruth``."""
+    p: argparse.ArgumentParser = subparsers.add_parser(
+        "eval", help="score a TUM trajectory (relations error, ATE/RPE), or write a log's ground truth as TUM",
+        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="eval_command", metavar="EVAL_COMMAND", required=True)
+    r = sub.add_parser("relations", help="Kümmerle et al. 2009 relations error (translation m, rotation deg)",
+                       description="The relations error of a trajectory: for each ground-truth relation (the robot's "
+                       "motion between the scans stamped t1 and t2), how far the trajectory's motion between "
+                       "its poses nearest those stamps is off, in translation and rotation.")
+    r.add_argument("trajectory", type=Path, help="estimated trajectory, TUM format")
+    r.add_argument("relations", type=Path, help="relations file: t1 t2 x y z roll pitch yaw per line")
+    _add_matching_options(r, 1)
+    r.set_defaults(func=run_eval_relations)
+    a = sub.add_parser("ate", help="ATE (after rigid 2-D alignment) and RPE against a reference trajectory",
+                       description="ATE: RMSE of the positions after the least-squares rigid 2-D alignment of the "
+                       "estimate onto the reference; RPE: the error of the motion between consecutive matched "
+                       "poses.  Write a log's reference with 'mcnkit eval groundtruth LOG OUT.tum'.")
+    a.add_argument("trajectory", type=Path, help="estimated trajectory, TUM format")
+    a.add_argument("reference", type=Path, help="reference trajectory, TUM format")
+    a.add_argument("--match", choices=["stamp", "order"], default="stamp",
+                   help="stamp: each reference pose with the estimate pose of the nearest stamp (default); "
+                        "order: the k-th pose of each (the same number of poses, one per scan of the same log)")
+    _add_matching_options(a, 3)
+    a.set_defaults(func=run_eval_ate)
+    g = sub.add_parser("groundtruth", help="write the ground-truth trajectory a log carries as TUM",
+                       description="Write the reference trajectory of any log mcnkit reads as TUM (one pose per "
+                       "line, the log's stamps): a Radish corrected CARMEN log's corrected poses, a bag's "
+                       "ground-truth topic, a simulated log's true path.")
+    g.add_argument("log", type=Path, help="a log (CARMEN, .bag, rosbag2 folder, .mcap)")
+    g.add_argument("output", type=Path, help="the TUM file to write")
+    g.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
+    g.set_defaults(func=run_eval_groundtruth)
+    return p
+
+
+class _Refused(Exception):
+    """One line for ``fail``: ``FILE: problem``."""
+
+
+def _read(reader: Any, path: Path, what: str) -> Any:
+    try:
+        value = reader(path)
+    except OSError as err:
+        raise _Refused(f"{path}: cannot read the {what}: {err.strerror or err}") from err
+    except ValueError as err:
+        text = str(err).splitlines()[0] if str(err).strip() else type(err).__name__
+        raise _Refused(text if text.startswith(str(path)) else f"{path}: not a {what} file ({text})") from err
+    if len(value) == 0:
+        raise _Refused(f"{path}: no {'relations' if what == 'relations' else 'poses'} in this {what} file")
+    return value
+
+
+def _command(args: argparse.Namespace) -> str:
+    return f"eval {args.eval_command}"
+
+
+def run_eval_relations(args: argparse.Namespace) -> int:
+    """Prints the relations error of a TUM trajectory (exit 2 when too few relations match)."""
+    from mcnkit.cli import fail
+    from mcnkit.metrics import EvaluationError, read_relations, read_tum, relations_error
+
+    try:
+        traj: Trajectory = _read(read_tum, args.trajectory, "trajectory")
+        rel: Relations = _read(read_relations, args.relations, "relations")
+        err = relations_error(traj, rel, args.tolerance_s, min_matched=args.min_matched,
+                              min_fraction=args.min_fraction)
+    except _Refused as exc:
+        return fail(_command(args), exc)
+    except EvaluationError as exc:
+        return fail(_command(args), f"{args.trajectory}: {exc}")
+    if args.json:
+        print(json.dumps(err.as_dict()))
+    else:
+        print(
+            f"translation {err.translation_mean_m:.4f} ± {err.translation_std_m:.4f} m, "
+            f"rotation {err.rotation_mean_deg:.3f} ± {err.rotation_std_deg:.3f} deg "
+            f"over {len(err.translation_m)} relations ({err.n_skipped} without a pose within {args.tolerance_s} s)"
+        )
+    return 0
+
+
+def run_eval_ate(args: argparse.Namespace) -> int:
+    """Prints ATE and RPE of a TUM trajectory against a reference TUM trajectory (exit 2 when too few poses
+    match, or their stamps cannot be matched)."""
+    from mcnkit.cli import fail
+    from mcnkit.metrics import EvaluationError, absolute_trajectory_error, read_tum, relative_pose_error
+
+    options = {"match": args.match, "min_matched": args.min_matched, "min_fraction": args.min_fraction}
+    try:
+        traj: Trajectory = _read(read_tum, args.trajectory, "trajectory")
+        ref: Trajectory = _read(read_tum, args.reference, "reference trajectory")
+        ate = absolute_trajectory_error(traj, ref, args.tolerance_s, **options)
+        rpe = relative_pose_error(traj, ref, args.tolerance_s, **options)
+    except _Refused as exc:
+        return fail(_command(args), exc)
+    except EvaluationError as exc:
+        return fail(_command(args), f"{args.trajectory}: {exc}")
+    if args.json:
+        print(json.dumps({"ate": ate.as_dict(), "rpe": rpe.as_dict(), "n_reference": len(ref), "match": args.match}))
+    else:
+        print(
+            f"ATE rmse {ate.rmse_m:.4f} m (mean {ate.mean_m:.4f}, max {ate.max_m:.4f}) over {ate.n_matched} of "
+            f"{len(ref)} reference poses (matched by {args.match}); "
+            f"RPE {rpe.translation_mean_m:.4f} ± {rpe.translation_std_m:.4f} m, "
+            f"{rpe.rotation_mean_deg:.3f} ± {rpe.rotation_std_deg:.3f} deg"
+        )
+    return 0
+
+
+def write_ground_truth(log_path: Path, output: Path, *, overwrite: bool = False) -> int:
+    """Writes the ground-truth trajectory of the log at ``log_path`` as TUM into ``output`` (temporary name, then
+    renamed); returns the number of poses.  :class:`~mcnkit.io.LogError` when the log has none, ``output`` is the
+    log, or ``output`` exists and ``overwrite`` is not set."""
+    from mcnkit.io import LogError, open_log
+    from mcnkit.metrics import write_tum
+
+    output = Path(output)
+    if output.exists() and Path(log_path).exists() and os.path.samefile(output, log_path):
+        raise LogError(output, "is the input log: choose another output file")
+    if output.is_dir():
+        raise LogError(output, "is a folder: give a file name for the TUM trajectory")
+    if output.exists() and not overwrite:
+        raise LogError(output, "exists (use --overwrite to replace it)")
+    with open_log(log_path) as log:
+        truth = log.ground_truth()
+    if truth is None or len(truth) == 0:
+        raise LogError(log_path, "this log carries no ground-truth trajectory (a Radish corrected CARMEN log, a "
+                                 "ground-truth topic or a simulated log does)")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".partial", dir=output.parent)
+    os.close(fd)
+    try:
+        write_tum(Path(tmp), truth)
+        os.replace(tmp, output)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return len(truth)
+
+
+def run_eval_groundtruth(args: argparse.Namespace) -> int:
+    """``mcnkit eval groundtruth LOG OUT.tum``."""
+    n = write_ground_truth(args.log, args.output, overwrite=args.overwrite)
+    print(f"wrote {args.output}: {n} ground-truth poses of {args.log}")
+    return 0
