@@ -21,6 +21,7 @@ import dataclasses
 import inspect
 import itertools
 import json
+import re
 import typing
 from functools import cache
 from pathlib import Path
@@ -48,6 +49,7 @@ def _field_docs(cls: type) -> dict[str, str]:
         if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and isinstance(after, ast.Expr)
                 and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
             text = " ".join(after.value.value.split())
+            text = re.sub(r":\w+:`~?([^`]+)`", r"\1", text).replace("``", "")  # reST roles and literals, as plain text
             docs[node.target.id] = text.split(". ")[0].rstrip(".") + "."  # the first sentence
     return docs
 
