@@ -16,13 +16,16 @@ signal.  Outputs never replace an input, and replace an existing file only with 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mcnkit.completion.registry import MODELS
+from mcnkit.runconfig import add_dataclass_flags
 from mcnkit.sinks import RunSummary
+from mcnkit.slam.config import SlamConfig
 
 if TYPE_CHECKING:
     from mcnkit.drive import Sink
@@ -87,8 +90,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     from mcnkit.io import open_log
     from mcnkit.mcn import McnConfig, McnSlam, load_model
     from mcnkit.outputs import Output, check_outputs
+    from mcnkit.runconfig import ConfigError, resolve_slam_config
     from mcnkit.sinks import McnOutputs
-    from mcnkit.slam.config import SlamConfig
 
     model_path = [] if args.model in MODELS else [Path(args.model)]
     outputs = [Output(p, folder=p == args.out) for p in (args.rrd, args.out) if p is not None]
@@ -101,20 +104,21 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         config = McnConfig(samples=args.samples, ranks=args.ranks, window=args.window, window_m=args.window_m,
                            every=args.every, full_map_every=args.map_every if args.rrd is not None else 0)
-        slam_config = SlamConfig(n_particles=args.particles, resolution_m=args.resolution)
-    except ValueError as err:
+        slam_config, seed = resolve_slam_config(args)
+    except (ValueError, ConfigError) as err:
         return fail("run", err)
-    mcn = McnSlam(slam_config, model, config, np.random.default_rng(args.seed),
-                  generator=torch.Generator().manual_seed(args.seed))
+    mcn = McnSlam(slam_config, model, config, np.random.default_rng(seed),
+                  generator=torch.Generator().manual_seed(seed))
     with SIGNALS.deferred(), open_log(args.log) as log:
         count = next((t.count for t in getattr(log, "topics", []) if t.name == getattr(log, "scan_topic", None)),
                      None)
-        rec_id = f"mcn-{Path(args.log).stem}-{args.model if args.model in MODELS else 'custom'}-{args.seed}"
+        rec_id = f"mcn-{Path(args.log).stem}-{args.model if args.model in MODELS else 'custom'}-{seed}"
         summary, sinks = mcn_sinks(mcn, rrd=args.rrd, recording_id=rec_id, progress=not args.no_progress,
                                    total=count)
         if args.out is not None:
             info = {"log": str(args.log), "model": args.model, "samples": args.samples, "ranks": args.ranks,
-                    "particles": args.particles, "seed": args.seed, "window": args.window}
+                    "particles": slam_config.n_particles, "seed": seed, "window": args.window,
+                    "config": dataclasses.asdict(slam_config)}
             sinks.append(McnOutputs(args.out, mcn, summary, info))
         outcome = drive(log.frames(), mcn, sinks, stop=SIGNALS.requested)
     if summary.scans == 0:
@@ -152,17 +156,23 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
                         "leaves the outside of a building occupied; unet is the paper's, trained on one-scan maps)")
     p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")
     p.add_argument("--ranks", type=int, default=3, help="R best particles completed (default 3)")
-    p.add_argument("--particles", type=int, default=30, help="SLAM particles (default 30)")
-    p.add_argument("--resolution", type=float, default=0.05, help="map cell size in metres (default 0.05)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="SLAM settings file: TOML ([slam] table of SlamConfig fields, seed = N) or a run's "
+                        "summary.json; flags given here override it")
+    p.add_argument("--particles", type=int, default=None, help="SLAM particles (default 30; = --slam.n-particles)")
+    p.add_argument("--resolution", type=float, default=None,
+                   help="map cell size in metres (default 0.05; = --slam.resolution-m)")
     p.add_argument("--window", choices=["map", "robot"], default="map",
                    help="network input: the whole map shrunk to 64x64 (paper) or a robot-centred square")
     p.add_argument("--window-m", type=float, default=12.8, help="side of the robot-centred window (default 12.8 m)")
     p.add_argument("--every", type=int, default=1, help="complete at every N-th filter update (default 1: each)")
     p.add_argument("--map-every", type=int, default=5,
                    help="with --rrd: record the best full-resolution map every N completions (default 5)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the filter and of the samples")
+    p.add_argument("--seed", type=int, default=None,
+                   help="seed of the filter and of the samples (default 0, or the config file's)")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_dataclass_flags(p, SlamConfig, "slam")
     p.set_defaults(func=cmd_run)
 
 

@@ -25,9 +25,13 @@ import re
 import typing
 from functools import cache
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
-__all__ = ["ConfigError", "add_dataclass_flags", "build_dataclass", "dataclass_overrides", "read_config_file"]
+if TYPE_CHECKING:
+    from mcnkit.slam.config import SlamConfig
+
+__all__ = ["ConfigError", "add_dataclass_flags", "build_dataclass", "dataclass_overrides", "read_config_file",
+           "resolve_slam_config"]
 
 T = TypeVar("T")
 
@@ -144,3 +148,25 @@ def build_dataclass(cls: type[T], *layers: dict[str, Any]) -> T:
         return cls(**values)
     except (TypeError, ValueError) as err:
         raise ConfigError(f"{cls.__name__}: {err}") from err
+
+
+def resolve_slam_config(args: argparse.Namespace) -> tuple[SlamConfig, int]:
+    """The filter's settings and the seed: defaults, then ``--config`` (its ``slam`` table, or the ``config`` of a
+    ``summary.json``), then ``--particles`` / ``--resolution``, then ``--slam.FIELD`` flags."""
+    from mcnkit.slam.config import SlamConfig
+
+    file: dict[str, Any] = read_config_file(args.config) if getattr(args, "config", None) is not None else {}
+    table = file.get("slam", file.get("config", {}))
+    if not isinstance(table, dict):
+        raise ConfigError(f"{args.config}: 'slam' is not a table of settings")
+    try:
+        build_dataclass(SlamConfig, table)
+    except ConfigError as err:
+        raise ConfigError(f"{args.config}: {err}") from err
+    short = {k: v for k, v in (("n_particles", getattr(args, "particles", None)),
+                               ("resolution_m", getattr(args, "resolution", None))) if v is not None}
+    config = build_dataclass(SlamConfig, table, short, dataclass_overrides(args, "slam"))
+    seed = args.seed if args.seed is not None else file.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool):
+        raise ConfigError(f"{args.config}: seed: expected an integer, got {seed!r}")
+    return config, seed

@@ -26,10 +26,10 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from mcnkit.runconfig import add_dataclass_flags
+from mcnkit.runconfig import add_dataclass_flags, resolve_slam_config
 from mcnkit.slam.config import SlamConfig
 
-__all__ = ["add_slam_parser", "resolve_slam_config", "run_slam"]
+__all__ = ["add_slam_parser", "run_slam"]
 
 _DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robot log and write into --out:
 
@@ -87,28 +87,6 @@ def _scan_count(reader: Any) -> int | None:
         return next(t.count for t in reader.topics if t.name == reader.scan_topic)
     except (StopIteration, AttributeError, NotImplementedError):
         return None
-
-
-def resolve_slam_config(args: argparse.Namespace) -> tuple[SlamConfig, int]:
-    """The filter's settings and the seed: defaults, then ``--config`` (its ``slam`` table, or the ``config`` of a
-    ``summary.json``), then ``--particles`` / ``--resolution``, then ``--slam.FIELD`` flags."""
-    from mcnkit.runconfig import ConfigError, build_dataclass, dataclass_overrides, read_config_file
-
-    file: dict[str, Any] = read_config_file(args.config) if getattr(args, "config", None) is not None else {}
-    table = file.get("slam", file.get("config", {}))
-    if not isinstance(table, dict):
-        raise ConfigError(f"{args.config}: 'slam' is not a table of settings")
-    try:
-        build_dataclass(SlamConfig, table)
-    except ConfigError as err:
-        raise ConfigError(f"{args.config}: {err}") from err
-    short = {k: v for k, v in (("n_particles", getattr(args, "particles", None)),
-                               ("resolution_m", getattr(args, "resolution", None))) if v is not None}
-    config = build_dataclass(SlamConfig, table, short, dataclass_overrides(args, "slam"))
-    seed = args.seed if args.seed is not None else file.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool):
-        raise ConfigError(f"{args.config}: seed: expected an integer, got {seed!r}")
-    return config, seed
 
 
 def run_slam(args: argparse.Namespace) -> int:
