@@ -124,6 +124,10 @@ def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
             code = fail(name, f"{err.filename}: {err.strerror}")
     except KeyboardInterrupt as err:  # a signal outside a drive (mcnkit.drive.Interrupted), or Ctrl-C elsewhere
         return _interrupted(name, getattr(err, "signum", sigint))
+    except Exception:  # raised while the signal's exception unwound compiled code (numba's SystemError): the signal
+        if signals.received is not None:
+            return _interrupted(name, signals.received)
+        raise
     if signals.received is not None:
         return _interrupted(name, signals.received)
     return code
