@@ -13,7 +13,7 @@ export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
 .PHONY: help venv demo test lint typecheck pytest bench clean browser-check notebooks data
 
 help:
-	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> MCN-SLAM -> recordings/demo.rrd)"
+	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> MCN-SLAM -> recordings/demo/demo.rrd)"
 	@echo "make test   set up .venv and run ruff, mypy and pytest (all tests, slow ones included)"
 	@echo "make bench  run the benchmarks in benchmarks/ (figures printed and written as JSON)"
 	@echo "make notebooks       run every notebook in full mode (copies with outputs in notebooks/executed/)"
@@ -36,7 +36,7 @@ $(HOUSEEXPO): $(STAMP)
 data: $(HOUSEEXPO)
 
 demo: $(STAMP)
-	$(VENV)/bin/mcnkit demo
+	$(VENV)/bin/mcnkit demo --overwrite
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check mcnkit tests benchmarks notebooks

@@ -1,7 +1,8 @@
 """The ``mcnkit`` command: one subcommand per job, each implemented next to the code it drives.
 
 Every subcommand is a function ``(argparse.Namespace) -> exit code``.  Bad input ends with one line on
-stderr naming the file and the problem, and exit code 2; Ctrl-C ends with exit code 130.
+stderr naming the file and the problem, and exit code 2; SIGINT (Ctrl-C) and SIGTERM end with one line and exit
+code 130 / 143.
 """
 
 from __future__ import annotations
@@ -11,9 +12,12 @@ import importlib
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from mcnkit import __version__
+
+if TYPE_CHECKING:
+    from mcnkit.drive import Signals
 
 __all__ = ["COMMANDS", "EXIT_BAD_INPUT", "build_parser", "fail", "main"]
 
@@ -76,31 +80,63 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupted(name: str | None, signum: int) -> int:
+    import signal
+
+    print(f"mcnkit {name}: interrupted by {signal.Signals(signum).name}" if name else
+          f"mcnkit: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
+    return 128 + signum
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``mcnkit`` console script."""
+    """Entry point of the ``mcnkit`` console script.
+
+    SIGINT and SIGTERM end the command with one line on stderr and exit code 130 / 143; a command that writes
+    results (``slam``, ``run``, ``demo``) first finishes the frame at hand and writes what it has (see
+    :mod:`mcnkit.drive`).
+    """
+    import signal
+    import threading
+
+    from mcnkit.drive import SIGNALS
+
+    with SIGNALS.installed(threading.current_thread() is threading.main_thread()):
+        return _main(argv, SIGNALS, signal.SIGINT)
+
+
+def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
     warnings.showwarning = _show_warning
     words = list(sys.argv[1:] if argv is None else argv)
     command = next((w for w in words if not w.startswith("-")), None)
-    args = build_parser(command if command in COMMANDS else None).parse_args(words)
-    from mcnkit.completion.registry import CheckpointError  # after parsing: --help needs none of these
-    from mcnkit.io.errors import LogError
-
-    name = " ".join(str(w) for w in (args.command, *(getattr(args, k, None) for k in _SUBCOMMAND_KEYS)) if w)
+    name = command if command in COMMANDS else None
     try:
-        return int(args.func(args))
-    except (LogError, CheckpointError) as err:
-        return fail(name, err)
-    except (FileNotFoundError, IsADirectoryError, PermissionError, FileExistsError) as err:
-        return fail(name, f"{err.filename}: {err.strerror}")
-    except ModuleNotFoundError as err:
-        extra = EXTRAS.get((err.name or "").split(".")[0])
-        if extra is None:
-            raise
-        return fail(name, f"needs the optional '{extra}' dependencies ({err.name} is not installed): "
-                          f"pip install 'mcnkit[{extra}]'")
-    except KeyboardInterrupt:
-        print(f"mcnkit {name}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        args = build_parser(name).parse_args(words)
+        from mcnkit.completion.registry import CheckpointError  # after parsing: --help needs none of these
+        from mcnkit.io.errors import LogError
+        from mcnkit.outputs import OutputError
+
+        name = " ".join(str(w) for w in (args.command, *(getattr(args, k, None) for k in _SUBCOMMAND_KEYS)) if w)
+        try:
+            code = int(args.func(args))
+        except (LogError, CheckpointError, OutputError) as err:
+            code = fail(name, err)
+        except (FileNotFoundError, IsADirectoryError, PermissionError, FileExistsError) as err:
+            code = fail(name, f"{err.filename}: {err.strerror}")
+        except ModuleNotFoundError as err:
+            extra = EXTRAS.get((err.name or "").split(".")[0])
+            if extra is None:
+                raise
+            code = fail(name, f"needs the optional '{extra}' dependencies ({err.name} is not installed): "
+                              f"pip install 'mcnkit[{extra}]'")
+    except KeyboardInterrupt as err:  # a signal outside a drive (mcnkit.drive.Interrupted), or Ctrl-C elsewhere
+        return _interrupted(name, getattr(err, "signum", sigint))
+    except Exception:  # raised while the signal's exception unwound compiled code (numba's SystemError): the signal
+        if signals.received is not None:
+            return _interrupted(name, signals.received)
+        raise
+    if signals.received is not None:
+        return _interrupted(name, signals.received)
+    return code
 
 
 EXTRAS = {"torch": "completion", "safetensors": "completion", "skimage": "completion", "matplotlib": "completion",

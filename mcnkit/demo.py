@@ -3,7 +3,7 @@
 1. simulate a robot exploring a procedurally generated apartment (lidar + drifting odometry + ground truth);
 2. write it as a ROS2-profile MCAP log and show ``mcnkit info`` of it;
 3. run MCN-SLAM on the log: grid FastSLAM, and at every filter update K sampled completions of the R best
-   particles' maps by the shipped U-net, every step recorded to a Rerun file (``recordings/demo.rrd``);
+   particles' maps by the shipped U-net, every step recorded to a Rerun file (``recordings/demo/demo.rrd``);
    write the trajectory (TUM), the map (PGM/YAML/PNG) and the last completions (PNG);
 4. score against the ground truth: trajectory (ATE, SLAM vs raw odometry) and map completion (F of the free
    space, SLAM map vs completed map, at the first and the last filter update).
@@ -16,6 +16,12 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+from mcnkit.completion.registry import MODELS
+
+if TYPE_CHECKING:
+    from mcnkit.drive import Signals
 
 __all__ = ["DemoResult", "add_demo_parser", "run_demo"]
 
@@ -41,19 +47,25 @@ class DemoResult:
 
 def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particles: int = 30,
              duration_s: float = 120.0, samples: int = 4, ranks: int = 2, model: str = "unet",
-             progress: bool = True) -> DemoResult:
-    """Simulates, records and scores one run (see the module docstring)."""
+             progress: bool = True, signals: Signals | None = None) -> DemoResult:
+    """Simulates, records and scores one run (see the module docstring).
+
+    With ``signals`` (``mcnkit demo``), a SIGINT / SIGTERM during MCN-SLAM stops it between frames, the recording
+    and outputs so far are written, and :class:`~mcnkit.drive.Interrupted` is raised.
+    """
+    from contextlib import nullcontext
+
     import numpy as np
     import torch
 
+    from mcnkit.drive import Interrupted, drive
     from mcnkit.io import open_log
     from mcnkit.io.cli import describe, print_info
-    from mcnkit.io.mapfiles import write_map
     from mcnkit.mcn import McnConfig, McnSlam, load_model
-    from mcnkit.metrics import absolute_trajectory_error, write_tum
-    from mcnkit.plots import completion_figure
-    from mcnkit.run import run_mcn
+    from mcnkit.metrics import absolute_trajectory_error
+    from mcnkit.run import mcn_sinks
     from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
+    from mcnkit.sinks import McnOutputs
     from mcnkit.slam import SlamConfig
     from mcnkit.types import TernaryMap
 
@@ -72,19 +84,21 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
           f"update ({model}), recording every step to {rrd}")
     mcn = McnSlam(SlamConfig(n_particles=particles), load_model(model), McnConfig(samples=samples, ranks=ranks),
                   np.random.default_rng(seed), generator=torch.Generator().manual_seed(seed), ground_truth=truth)
-    summary = run_mcn(frames, mcn, rrd=rrd, recording_id=f"demo-apartment{apartment}-seed{seed}",
-                      ground_truth=truth, progress=progress)
-    write_tum(out / "trajectory.tum", mcn.slam.trajectory())
-    write_map(mcn.slam.best_map(), out)
-    completion_png = out / "completion.png"
-    if summary.last_completion is not None:
-        completion_figure(summary.last_completion).savefig(completion_png, dpi=100)
+    with signals.deferred() if signals is not None else nullcontext():
+        summary, sinks = mcn_sinks(mcn, rrd=rrd, recording_id=f"demo-apartment{apartment}-seed{seed}",
+                                   ground_truth=truth, progress=progress)
+        info = {"log": str(log_path), "model": model, "samples": samples, "ranks": ranks, "particles": particles,
+                "seed": seed, "apartment": apartment}
+        sinks.append(McnOutputs(out, mcn, summary, info, dpi=100))
+        outcome = drive(frames, mcn, sinks, stop=signals.requested if signals is not None else None)
+    if outcome.interrupted and signals is not None and signals.received is not None:
+        raise Interrupted(signals.received)
     ate_slam = absolute_trajectory_error(mcn.slam.trajectory(), sim.ground_truth)
     ate_odom = absolute_trajectory_error(sim.odometry, sim.ground_truth)
     first, final = summary.scores[0], summary.scores[-1]
-    result = DemoResult(log_path, rrd, out / "map.png", completion_png, summary.scans, summary.filter_updates,
-                        ate_slam.rmse_m, ate_odom.rmse_m, first["f_slam"], first["f_completed"], final["f_slam"],
-                        final["f_completed"], time.perf_counter() - t0)
+    result = DemoResult(log_path, rrd, out / "map.png", out / "completion.png", summary.scans,
+                        summary.filter_updates, ate_slam.rmse_m, ate_odom.rmse_m, first["f_slam"],
+                        first["f_completed"], final["f_slam"], final["f_completed"], time.perf_counter() - t0)
     (out / "demo.json").write_text(json.dumps({k: str(v) if isinstance(v, Path) else v
                                                for k, v in result.__dict__.items()}, indent=2) + "\n")
     print(f"[4/4] against the ground truth: trajectory ATE RMSE {ate_slam.rmse_m:.3f} m (odometry alone "
@@ -95,8 +109,15 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
 
 
 def _main(args: argparse.Namespace) -> int:
-    result = run_demo(args.out, args.rrd, apartment=args.apartment, seed=args.seed, particles=args.particles,
-                      duration_s=args.duration_s, samples=args.samples, ranks=args.ranks, model=args.model)
+    from mcnkit.drive import SIGNALS
+    from mcnkit.outputs import Output, check_outputs
+
+    model_path = [] if args.model in MODELS else [Path(args.model)]
+    rrd = args.rrd if args.rrd is not None else args.out / "demo.rrd"
+    check_outputs(model_path, [Output(args.out, folder=True), Output(rrd)], overwrite=args.overwrite)
+    result = run_demo(args.out, rrd, apartment=args.apartment, seed=args.seed, particles=args.particles,
+                      duration_s=args.duration_s, samples=args.samples, ranks=args.ranks, model=args.model,
+                      signals=SIGNALS)
     print(f"\nrecording: {result.rrd_path}   map: {result.map_png}   completions: {result.completion_png}")
     print(f"watch it:  .venv/bin/rerun {result.rrd_path}        (or open it in notebooks/01_quickstart.ipynb)")
     return 0
@@ -110,20 +131,26 @@ _DESCRIPTION = """MCN-SLAM end to end on embedded data (no download, shipped net
      particles' maps by the shipped U-net, every step recorded to a Rerun file (--rrd); write the trajectory
      (TUM), the map (PGM/YAML/PNG) and the last completions (PNG) into --out;
   4. score against the ground truth: trajectory (ATE, SLAM vs raw odometry) and map completion (F of the free
-     space, SLAM map vs completed map, at the first and the last filter update)."""
+     space, SLAM map vs completed map, at the first and the last filter update).
+
+Outputs go to recordings/demo/ by default (git ignores it); an earlier run there is replaced only with
+--overwrite.  Ctrl-C or SIGTERM during MCN-SLAM writes the recording and outputs so far (exit 130 / 143)."""
 
 
 def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit demo``."""
     p = sub.add_parser("demo", help="simulate an apartment, run MCN-SLAM on its log, record it for Rerun (no dataset)",
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", type=Path, default=Path("recordings/demo"), help="output folder (default recordings/demo)")
-    p.add_argument("--rrd", type=Path, default=Path("recordings/demo.rrd"), help="the Rerun recording")
+    p.add_argument("--out", type=Path, default=Path("recordings/demo"),
+                   help="output folder (default recordings/demo, which git ignores)")
+    p.add_argument("--rrd", type=Path, default=None, help="the Rerun recording (default OUT/demo.rrd)")
+    p.add_argument("--overwrite", action="store_true", help="replace the outputs of an earlier run")
     p.add_argument("--apartment", type=int, default=3, help="procedural apartment number (default 3)")
     p.add_argument("--seed", type=int, default=0, help="random seed of the robot run and the filter")
     p.add_argument("--particles", type=int, default=30, help="SLAM particles (default 30)")
     p.add_argument("--duration-s", type=float, default=120.0, help="simulated seconds at most (default 120)")
     p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")
     p.add_argument("--ranks", type=int, default=2, help="R best particles completed (default 2)")
-    p.add_argument("--model", default="unet", help="unet, pix2pix or a checkpoint path (default unet)")
+    p.add_argument("--model", default="unet",
+                   help=f"{', '.join(MODELS)} (shipped weights) or a checkpoint path (default unet)")
     p.set_defaults(func=_main)

@@ -31,6 +31,7 @@ finalises the file, so an interrupted run still leaves a readable recording.
 
 from __future__ import annotations
 
+import os
 import re
 import uuid
 from pathlib import Path
@@ -43,6 +44,7 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from mcnkit.geometry import transform_points
+from mcnkit.outputs import partial_path
 from mcnkit.slam.fastslam import SlamStep
 from mcnkit.types import Frame, TernaryMap
 
@@ -265,18 +267,21 @@ def _columns(kind: str, values: list[Any]) -> Any:
 
 
 class RerunLogger:
-    """Writes one run to ``path`` (``.rrd``) and, with ``notebook_viewer=True``, streams it to ``.viewer``
+    """Writes one run to ``path`` (``.rrd``: written as ``path.partial`` and renamed when closed, unless
+    ``atomic=False``) and, with ``notebook_viewer=True``, streams it to ``.viewer``
     (a ``rerun.notebook.Viewer``: show it with ``logger.viewer.display()``)."""
 
     def __init__(self, path: str | Path, recording_id: str | None = None,
                  blueprint: rrb.Blueprint | None = None, *, notebook_viewer: bool = False,
-                 viewer_size: tuple[int, int] = (1000, 520), flush_updates: int = 50) -> None:
+                 viewer_size: tuple[int, int] = (1000, 520), flush_updates: int = 50, atomic: bool = True) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         recording_id = recording_id or str(uuid.uuid4())
         blueprint = blueprint or slam_blueprint()
         self.rec = _Tee(APPLICATION_ID, recording_id)
-        self.rec.file.save(str(self.path), default_blueprint=blueprint)
+        # renamed to ``path`` once finalised (see close); atomic=False writes ``path`` itself as it grows
+        self._partial = partial_path(self.path) if atomic else self.path
+        self.rec.file.save(str(self._partial), default_blueprint=blueprint)
         self.viewer = self.rec.attach_notebook_viewer(blueprint, viewer_size) if notebook_viewer else None
         self.rec.log("/", rr.AnnotationContext([rr.AnnotationInfo(id=i, label=n, color=c) for i, n, c in _CLASSES]),
                      static=True)
@@ -431,6 +436,8 @@ class RerunLogger:
             self._flush()
             self.rec.flush()
             self.rec.disconnect()
+            if self._partial != self.path and self._partial.is_file():
+                os.replace(self._partial, self.path)
 
     def __enter__(self) -> RerunLogger:
         return self

@@ -66,7 +66,8 @@ class SlamStepper:
         if self._logger is not None:
             self._logger.close()
         self.slam = FastSlam(self.config(), np.random.default_rng(self.seed))
-        self._logger = RerunLogger(self.rrd_path, recording_id=f"stepper-{self.seed}", notebook_viewer=self.use_viewer)
+        self._logger = RerunLogger(self.rrd_path, recording_id=f"stepper-{self.seed}", notebook_viewer=self.use_viewer,
+                                   atomic=False)  # the file grows as the user steps (flushed after each step)
         if self.ground_truth is not None:
             self.logger.log_ground_truth(self.ground_truth)
         self.index = 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -208,3 +209,16 @@ def test_mcnkit_run_refuses_a_checkpoint_that_is_not_one(tmp_path: Path, sim_run
     code = main(["run", "whatever.mcap", "--model", str(bogus), "--rrd", str(tmp_path / "x.rrd")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "net" in err[0]
+
+
+def test_mcnkit_run_takes_slam_flags_and_reruns_from_its_summary(tmp_path: Path, sim_run: SimResult) -> None:
+    log = write_sim_log(sim_run, tmp_path / "apartment.mcap", "mcap")
+    base = ["run", str(log), "--samples", "2", "--ranks", "1", "--no-progress"]
+    assert main([*base, "--slam.n-particles", "5", "--slam.linear-update-m", "0.5", "--seed", "2",
+                 "--out", str(tmp_path / "first")]) == 0
+    summary = json.loads((tmp_path / "first" / "summary.json").read_text())
+    assert summary["config"]["n_particles"] == 5 and summary["config"]["linear_update_m"] == 0.5
+    assert summary["seed"] == 2 and summary["interrupted"] is False
+    assert main([*base, "--config", str(tmp_path / "first" / "summary.json"), "--out", str(tmp_path / "again")]) == 0
+    first, again = ((tmp_path / d / "trajectory.tum").read_bytes() for d in ("first", "again"))
+    assert first == again

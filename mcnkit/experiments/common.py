@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from mcnkit.completion.nets import UNet
 from mcnkit.completion.sample import complete, label_entropy, sample_completions
 from mcnkit.completion.scores import mean_ci95, score_maps
+from mcnkit.drive import DriveStep, Outcome, drive
 from mcnkit.slam import FastSlam, SlamConfig
 from mcnkit.slam.lineage import LineageMap
 from mcnkit.types import FREE, UNKNOWN, Frame, TernaryMap
@@ -75,18 +76,27 @@ class SlamRun:
         return len(self.best_poses)
 
 
-def run_slam(frames: Iterable[Frame], config: SlamConfig, rng: np.random.Generator) -> SlamRun:
-    """Runs FastSLAM over ``frames``, remembering the best particle's ancestry at every filter update."""
-    import time
+class _BestAncestry:
+    """The :func:`mcnkit.drive.drive` sink of :func:`run_slam`: at every filter update, the ancestry poses of the
+    particle best at that update."""
 
-    t0 = time.process_time()
+    def __init__(self, run: SlamRun) -> None:
+        self.run = run
+
+    def on_step(self, step: DriveStep) -> None:
+        self.run.n_scans += 1
+        if step.slam.updated:
+            self.run.best_poses.append(self.run.slam.update_poses(step.slam.best_index))
+
+    def close(self, outcome: Outcome) -> None:
+        self.run.cpu_s = outcome.cpu_s
+
+
+def run_slam(frames: Iterable[Frame], config: SlamConfig, rng: np.random.Generator) -> SlamRun:
+    """Runs FastSLAM over ``frames`` (through :func:`mcnkit.drive.drive`), remembering the best particle's
+    ancestry at every filter update."""
     run = SlamRun(FastSlam(config, rng))
-    for frame in frames:
-        s = run.slam.step(frame)
-        run.n_scans += 1
-        if s.updated:
-            run.best_poses.append(run.slam.update_poses(s.best_index))
-    run.cpu_s = time.process_time() - t0
+    drive(frames, run.slam, [_BestAncestry(run)])
     if not run.best_poses:
         raise ValueError("the log produced no filter update (no frames?)")
     return run

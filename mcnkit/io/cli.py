@@ -110,7 +110,9 @@ def _convert(args: argparse.Namespace) -> int:
 
     from mcnkit.io.open import open_log
     from mcnkit.io.writers import infer_format, write_log
+    from mcnkit.outputs import Output, check_outputs
 
+    check_outputs([args.input], [Output(args.output, folder=None)], overwrite=args.overwrite)
     with open_log(args.input, scan_topic=args.scan_topic, odom=args.odom) as log:
         log.check_frames()
         total = next((t.count for t in log.topics if t.name == log.scan_topic), None)

@@ -192,10 +192,8 @@ def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, 
         raise LogError(path, f"unknown output format {fmt!r} (choose from {', '.join(FORMATS)})")
     if not content.frames:
         raise LogError(path, "nothing to write: no frames")
-    if path.exists():
-        if not overwrite:
-            raise LogError(path, "exists already (pass overwrite=True or --overwrite)")
-        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    if path.exists() and not overwrite:
+        raise LogError(path, "exists already (pass overwrite=True or --overwrite)")
     partial = path.with_name(path.name + ".partial")
     if partial.exists():
         shutil.rmtree(partial) if partial.is_dir() else partial.unlink()
@@ -213,7 +211,9 @@ def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, 
     except BaseException:
         shutil.rmtree(partial, ignore_errors=True) if partial.is_dir() else partial.unlink(missing_ok=True)
         raise
-    partial.rename(path)
+    if path.exists() and (path.is_dir() or partial.is_dir()):  # a folder cannot be replaced by a rename
+        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    partial.replace(path)  # a file: replaced atomically, only now that the new one is complete
     return path
 
 

@@ -23,13 +23,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import resource
-import sys
-import time
-from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
+
+from mcnkit.runconfig import add_dataclass_flags, resolve_slam_config
+from mcnkit.slam.config import SlamConfig
 
 __all__ = ["add_slam_parser", "run_slam"]
 
@@ -44,7 +42,15 @@ _DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robo
   map.pgm, map.yaml         the best particle's map (ROS map_server: occupied 0, free 254, unknown 205), map.png
   summary.json              scans, filter updates, resamplings, CPU and wall time, peak memory, the configuration
 
-With --rrd every step is also recorded for Rerun.  Score a trajectory with 'mcnkit eval'."""
+With --rrd every step is also recorded for Rerun.  Score a trajectory with 'mcnkit eval'.
+
+Settings: every SlamConfig field is a --slam.FIELD flag (below); --config FILE reads them from a TOML file
+([slam] table, seed = N) or from a run's summary.json, which holds the full configuration, so
+'mcnkit slam LOG --config OLD/summary.json --out NEW' repeats a run exactly.
+
+Ctrl-C or SIGTERM stops after the scan at hand: --out and --rrd get the results so far (summary.json says
+"interrupted": true), exit code 130 / 143.  Outputs never replace the log; an existing --rrd, or an --out
+folder that is not empty, is replaced only with --overwrite."""
 
 
 
@@ -57,26 +63,23 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("log", type=Path, help="a log open_log reads (CARMEN .clf/.log[.gz], .bag, rosbag2, .mcap)")
-    p.add_argument("--particles", type=int, default=30, help="number of particles (default 30)")
-    p.add_argument("--resolution", type=float, default=0.05, help="cell size in metres (default 0.05)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="settings file: TOML (a [slam] table of SlamConfig fields, seed = N) or a run's summary.json "
+                        "(re-runs it); flags given here override it")
+    p.add_argument("--particles", type=int, default=None, help="number of particles (default 30; = --slam.n-particles)")
+    p.add_argument("--resolution", type=float, default=None,
+                   help="cell size in metres (default 0.05; = --slam.resolution-m)")
+    p.add_argument("--seed", type=int, default=None, help="random seed (default 0, or the config file's)")
+    p.add_argument("--out", type=Path, required=True,
+                   help="output folder (created; an existing one that is not empty needs --overwrite)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--out files, --rrd)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--rrd", type=Path, help="record every step to this Rerun file (.rrd)")
     p.add_argument("--rrd-map-every", type=int, default=10,
                    help="with --rrd: log the best particle's map every N filter updates (default 10)")
+    add_dataclass_flags(p, SlamConfig, "slam")
     p.set_defaults(func=run_slam)
     return p
-
-
-def _open(path: Path) -> Any:
-    try:
-        from mcnkit.io import open_log
-    except ImportError:  # until the generic reader lands: CARMEN logs only
-        from mcnkit.io.carmen import CarmenLog
-
-        return CarmenLog(path)
-    return open_log(path)
 
 
 def _scan_count(reader: Any) -> int | None:
@@ -87,82 +90,52 @@ def _scan_count(reader: Any) -> int | None:
 
 
 def run_slam(args: argparse.Namespace) -> int:
-    """Runs the filter over a log and writes trajectory, map and summary into ``args.out``."""
+    """Runs the filter over a log and writes trajectory, map and summary into ``args.out`` (also when interrupted:
+    the results so far, ``"interrupted": true`` in ``summary.json``)."""
     import numpy as np
-    from tqdm import tqdm
 
+    from mcnkit.cli import fail
+    from mcnkit.drive import SIGNALS, ProgressSink, Sink, drive
+    from mcnkit.io import open_log
     from mcnkit.io.errors import LogError
-    from mcnkit.io.mapfiles import write_map_strips
-    from mcnkit.metrics import write_tum
-    from mcnkit.slam.config import SlamConfig
+    from mcnkit.outputs import Output, OutputError, check_outputs
+    from mcnkit.runconfig import ConfigError
+    from mcnkit.sinks import RecordingSink, SlamOutputs
     from mcnkit.slam.fastslam import FastSlam
 
-    wall0, cpu0 = time.perf_counter(), time.process_time()
     try:
-        config = SlamConfig(n_particles=args.particles, resolution_m=args.resolution)
-    except ValueError as err:
-        print(f"mcnkit slam: {err}", file=sys.stderr)
-        return 2
+        config, seed = resolve_slam_config(args)
+    except ConfigError as err:
+        return fail("slam", err)
     rrd: Path | None = getattr(args, "rrd", None)
+    info = {"log": str(args.log), "particles": config.n_particles, "resolution_m": config.resolution_m,
+            "seed": seed, "config": dataclasses.asdict(config)}
+    slam = FastSlam(config, np.random.default_rng(seed))
+    outputs = SlamOutputs(args.out, slam, info)
     try:
-        reader = _open(args.log)
-        slam = FastSlam(config, np.random.default_rng(args.seed))
-        with reader, ExitStack() as stack:
-            recorder = None
+        check_outputs([args.log], [Output(args.out, folder=True), *([Output(rrd)] if rrd is not None else [])],
+                      overwrite=getattr(args, "overwrite", False))
+        with SIGNALS.deferred(), open_log(args.log) as reader:
+            sinks: list[Sink] = [ProgressSink(_scan_count(reader), enabled=not args.no_progress)]
             if rrd is not None:
                 from mcnkit.viz import RerunLogger  # rerun only when asked for
 
-                recorder = stack.enter_context(RerunLogger(rrd, recording_id=f"slam-{Path(args.log).stem}-{args.seed}"))
-            frames = tqdm(reader.frames(), total=_scan_count(reader), unit="scan", disable=args.no_progress)
-            for frame in frames:
-                step = slam.step(frame)
-                if recorder is not None:
-                    recorder.log_slam_step(frame, step, slam.trajectory().poses[:, :2] if step.updated else None)
-                    if step.updated and slam.n_updates % max(args.rrd_map_every, 1) == 1:
-                        recorder.log_map("/world/map/estimate", slam.best_ternary(), mask=True)
-                if step.updated:
-                    frames.set_postfix(updates=slam.n_updates, neff=f"{step.neff:.1f}", refresh=False)
-    except (LogError, OSError) as err:
-        print(f"mcnkit slam: {err}".splitlines()[0], file=sys.stderr)
-        return 2
-    if slam.n_scans == 0:
-        print(f"mcnkit slam: {args.log}: no scans", file=sys.stderr)
-        return 2
-    cpu_slam, wall_slam = time.process_time() - cpu0, time.perf_counter() - wall0
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    write_tum(out / "trajectory.tum", slam.trajectory(mode="tracked"))
-    write_tum(out / "trajectory_online.tum", slam.trajectory(mode="online"))
-    write_tum(out / "trajectory_gmapping.tum", slam.trajectory(mode="gmapping"))
-    write_tum(out / "trajectory_matched.tum", slam.trajectory(mode="matched"))
-    write_tum(out / "trajectory_smoothed.tum", slam.trajectory(mode="smoothed"))
-    spec, strips = slam.best_map_strips()
-    write_map_strips(out, spec, strips, config.occ_thresh)
-    summary = {
-        "log": str(args.log),
-        "particles": config.n_particles,
-        "resolution_m": config.resolution_m,
-        "seed": args.seed,
-        "config": dataclasses.asdict(config),
-        "loop_closures": slam.loops.stats.accepted,
-        "loop_corrections": slam.n_loop_corrections,
-        "scans": slam.n_scans,
-        "filter_updates": slam.n_updates,
-        "resamplings": slam.n_resamples,
-        "final_neff": slam.neff,
-        "best_particle": slam.best_index,
-        "cpu_s": time.process_time() - cpu0,
-        "wall_s": time.perf_counter() - wall0,
-        "cpu_s_filter": cpu_slam,
-        "wall_s_filter": wall_slam,
-        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "particle_maps_mb": slam.maps.nbytes / 1e6,
-        "map_cells": [spec.height, spec.width],
-    }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+                logger = RerunLogger(rrd, recording_id=f"slam-{Path(args.log).stem}-{seed}")
+                sinks.append(RecordingSink(logger, slam, map_every=args.rrd_map_every, trajectory="tracked"))
+            outcome = drive(reader.frames(), slam, [*sinks, outputs], stop=SIGNALS.requested)
+    except (LogError, OutputError) as err:
+        return fail("slam", err)
+    except OSError as err:
+        return fail("slam", f"{err.filename}: {err.strerror}" if err.filename else err)
+    if outputs.summary is None:
+        if outcome.interrupted:
+            return 0  # stopped before the first scan: main() reports the signal
+        return fail("slam", f"{args.log}: no scans")
+    summary = outputs.summary
+    stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
     print(
-        f"{slam.n_scans} scans, {slam.n_updates} filter updates, {slam.n_resamples} resamplings, "
+        f"{slam.n_scans} scans{stopped}, {slam.n_updates} filter updates, {slam.n_resamples} resamplings, "
         f"CPU {summary['cpu_s']:.1f} s, wall {summary['wall_s']:.1f} s, peak RSS {summary['peak_rss_mb']:.0f} MB"
-        f" -> {out}"
+        f" -> {args.out}"
     )
     return 0

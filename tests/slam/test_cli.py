@@ -93,3 +93,54 @@ def test_slam_records_every_step_to_rerun_when_asked(tmp_path: Path) -> None:
     table = store.reader(index="step", contents="/world/particles").to_arrow_table()
     assert table.num_rows == 30
     assert "/world/map/estimate" in {chunk.entity_path for chunk in store.stream()}
+
+
+def test_every_slam_config_field_has_a_flag_with_help() -> None:
+    import dataclasses
+
+    from mcnkit.slam.config import SlamConfig
+
+    parser = argparse.ArgumentParser("mcnkit")
+    slam = add_slam_parser(parser.add_subparsers(required=True))
+    options = {a.dest: a for a in slam._actions}
+    for f in dataclasses.fields(SlamConfig):
+        action = options[f"slam.{f.name}"]
+        assert f"--slam.{f.name.rstrip('_').replace('_', '-')}" in action.option_strings
+        assert action.help and "(default" in action.help and action.help.split(" (default")[0] != f.name
+    args = parser.parse_args(["slam", "x.clf", "--out", "o", "--slam.n-particles", "7", "--no-slam.loop-closure",
+                              "--slam.max-range-m", "none", "--slam.sigma-m2", "0.1", "--slam.str", "0.3"])
+    assert vars(args)["slam.n_particles"] == 7 and vars(args)["slam.loop_closure"] is False
+    assert vars(args)["slam.max_range_m"] is None and vars(args)["slam.str_"] == 0.3
+    assert "slam.srr" not in vars(args)  # only what was given
+
+
+def test_config_file_flags_and_rerun_from_summary_reproduce_the_trajectory(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "corridor.clf"
+    _write_clf(log)
+    toml = tmp_path / "run.toml"
+    toml.write_text("seed = 3\n[slam]\nn_particles = 6\nlinear_update_m = 0.3\nloop_closure = false\n")
+    first = tmp_path / "first"
+    assert _run(["slam", str(log), "--config", str(toml), "--slam.n-particles", "5", "--slam.srr", "0.2",
+                 "--out", str(first), "--no-progress"]) == 0
+    summary = json.loads((first / "summary.json").read_text())
+    assert summary["seed"] == 3
+    cfg = summary["config"]
+    assert (cfg["n_particles"], cfg["linear_update_m"], cfg["loop_closure"], cfg["srr"]) == (5, 0.3, False, 0.2)
+    assert cfg["sigma_m2"] == 0.05 and len(cfg) > 24  # every field, defaults included
+    again = tmp_path / "again"
+    assert _run(["slam", str(log), "--config", str(first / "summary.json"), "--out", str(again), "--no-progress"]) == 0
+    assert (again / "trajectory.tum").read_bytes() == (first / "trajectory.tum").read_bytes()
+    assert json.loads((again / "summary.json").read_text())["config"] == cfg
+    other = tmp_path / "other"  # the settings matter: the defaults give another trajectory
+    assert _run(["slam", str(log), "--out", str(other), "--no-progress"]) == 0
+    assert (other / "trajectory.tum").read_bytes() != (first / "trajectory.tum").read_bytes()
+    capsys.readouterr()
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[slam]\nn_particle = 6\n")
+    assert _run(["slam", str(log), "--config", str(bad), "--out", str(tmp_path / "x"), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("mcnkit slam: ") and err.endswith(f"{bad}: unknown SlamConfig setting: n_particle"), err
+    bad.write_text("[slam]\nn_particles = 'six'\n")
+    assert _run(["slam", str(log), "--config", str(bad), "--out", str(tmp_path / "x"), "--no-progress"]) == 2
+    assert "n_particles: expected int" in capsys.readouterr().err
