@@ -115,11 +115,15 @@ class Ros1BagSource(RawSource):
             return
         if not by_id:
             return
+        damaged: list[str] = []
         try:
-            for stamp, conn_id, raw in iter_indexed_messages(self.path, self._chunks, set(by_id)):
+            for stamp, conn_id, raw in iter_indexed_messages(self.path, self._chunks, set(by_id), damaged.append):
                 yield by_id[conn_id], stamp, raw
         except (ValueError, KeyError, OSError, RuntimeError, struct.error) as err:
             warn_skipped(self.path, f"stopped reading at a damaged chunk: {err}")
+        if damaged:
+            warn_skipped(self.path, f"{len(damaged)} damaged chunk(s): read the messages before the damage "
+                                    f"({damaged[0]})")
 
     def time_range_ns(self) -> tuple[int, int]:
         """From the bag's index when it has one."""

@@ -127,3 +127,12 @@ def test_a_rosbag2_folder_with_a_missing_file(tmp_path: Path, frames: list[Frame
     (path / "bag2.db3").unlink()
     with pytest.raises(LogError, match="missing"):
         open_log(path)
+
+
+def test_a_map_beyond_its_memory_limit_is_a_clear_error() -> None:
+    from mcnkit.slam.maps import MapLimitError, TiledHitMaps
+
+    maps = TiledHitMaps(30, 0.05)
+    maps.integrate(np.array([[0.0, 1.0]] * 30), np.array([[0.0, 1.0]] * 30))
+    with pytest.raises(MapLimitError, match="the map would span"):
+        maps.integrate(np.array([[0.0, 1e5]] * 30), np.array([[0.0, 1e5]] * 30))
