@@ -54,24 +54,32 @@ _SPEC_SCANS = 5  # the scanner is what most of the first scans say
 
 
 class _StampCheck:
-    """Whether a message's ``header stamp - record time`` is within ``STAMP_TOLERANCE_S`` of its stream's median."""
+    """Whether a message's ``header stamp - record time`` is within ``STAMP_TOLERANCE_S`` of its stream's median
+    (of the last 15 offsets, refreshed every 8 messages)."""
 
     def __init__(self) -> None:
         self.offsets: deque[int] = deque(maxlen=15)
+        self._median: int | None = None
+        self._since = 0
 
     def seed(self, offset: int) -> bool:
         """Adds a first offset; True once the seed is complete."""
         self.offsets.append(offset)
+        self._median = None
         return len(self.offsets) == self.offsets.maxlen
 
     def ok(self, offset: int) -> bool:
         """Judges one offset (every offset, kept or not, moves the median: a lasting clock change is followed)."""
-        good = True
-        if self.offsets:
-            ordered = sorted(self.offsets)
-            good = abs(offset - ordered[len(ordered) // 2]) <= _STAMP_TOLERANCE_NS
         self.offsets.append(offset)
-        return good
+        self._since += 1
+        if self._median is None or self._since >= 8:
+            ordered = sorted(self.offsets)
+            self._median, self._since = ordered[len(ordered) // 2], 0
+        if abs(offset - self._median) <= _STAMP_TOLERANCE_NS:
+            return True
+        ordered = sorted(self.offsets)  # the median may just have moved (a lasting change)
+        self._median, self._since = ordered[len(ordered) // 2], 0
+        return abs(offset - self._median) <= _STAMP_TOLERANCE_NS
 
 
 def _pick(conns: list[TopicInfo], preferred: str) -> str | None:

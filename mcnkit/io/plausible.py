@@ -117,14 +117,12 @@ def ranges_problem(ranges: np.ndarray, spec: LidarSpec) -> str | None:
     """Why a scan's readings are impossible for its scanner (None: they are possible)."""
     if ranges.shape != (spec.n_beams,):
         return "different beam count"
-    finite = np.isfinite(ranges)
-    if not finite.any():
-        return None
-    lo = float(np.min(ranges, where=finite, initial=np.inf))
-    hi = float(np.max(ranges, where=finite, initial=-np.inf))
-    if lo < 0.0:
+    # comparisons are False for NaN; -inf and +inf ("no return") are told apart only when a comparison hits
+    neg = ranges < 0.0
+    if neg.any() and np.isfinite(ranges[neg]).any():
         return "negative range"
-    if hi > NO_RETURN_FACTOR * spec.range_max_m:
+    far = ranges > NO_RETURN_FACTOR * spec.range_max_m
+    if far.any() and np.isfinite(ranges[far]).any():
         return "range beyond the scanner's limit"
     return None
 
@@ -189,15 +187,16 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
             return "stamp out of bounds"
         return ranges_problem(f.scan.ranges_m, f.scan.spec) or pose_problem(f.odom)
 
-    def decide(f: Frame, rest: list[Frame]) -> tuple[Frame | None, str | None]:
+    def decide(f: Frame, rest: deque[Frame]) -> tuple[Frame | None, str | None]:
         """The frame to pass on (None: dropped) and what happened to it."""
         odom = anchor.apply(f.odom)
         if last is not None and f.stamp_ns < last.stamp_ns:
             return None, "stamp went backwards"
-        lo = last.stamp_ns if last is not None else -1
-        earlier = sum(lo <= g.stamp_ns < f.stamp_ns for g in rest)
-        if rest and 2 * earlier > len(rest):
-            return None, "stamp out of order"
+        if rest and rest[0].stamp_ns < f.stamp_ns:  # rare: only then count the scans after it that come earlier
+            lo = last.stamp_ns if last is not None else -1
+            earlier = sum(lo <= g.stamp_ns < f.stamp_ns for g in rest)
+            if 2 * earlier > len(rest):
+                return None, "stamp out of order"
         if last is None:
             # the first frame: trusted unless the frames after it agree with each other but not with it
             if len(rest) >= 2 and not _reachable(f.stamp_ns, odom, rest[0], anchor) and _chain(rest, anchor):
@@ -212,7 +211,7 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
             return _with_odom(f, last.odom), "reanchored"
         return None, "odometry a robot cannot reach"
 
-    def release(f: Frame, rest: list[Frame]) -> Frame | None:
+    def release(f: Frame, rest: deque[Frame]) -> Frame | None:
         nonlocal last, passed
         out, what = decide(f, rest)
         if what is not None:
@@ -230,12 +229,12 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
         buf.append(f)
         if len(buf) > LOOKAHEAD:
             head = buf.popleft()
-            out = release(head, list(buf))
+            out = release(head, buf)
             if out is not None:
                 yield out
     while buf:
         head = buf.popleft()
-        out = release(head, list(buf))
+        out = release(head, buf)
         if out is not None:
             yield out
     reanchored = counts.pop("reanchored", 0)
@@ -263,6 +262,6 @@ def _reachable(stamp: int, pose: Pose2D, g: Frame, anchor: _Anchor) -> bool:
     return step_possible(stamp, pose, g.stamp_ns, anchor.apply(g.odom))
 
 
-def _chain(frames: list[Frame], anchor: _Anchor) -> bool:
+def _chain(frames: Iterable[Frame], anchor: _Anchor) -> bool:
     """Every step along ``frames`` is possible (their own odometry, before any new re-anchoring)."""
     return all(step_possible(a.stamp_ns, a.odom, b.stamp_ns, b.odom) for a, b in pairwise(frames))
