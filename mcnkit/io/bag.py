@@ -9,8 +9,14 @@ Detection (each overridable in :func:`mcnkit.io.open_log`):
 
 Frames: scans and odometry are read together in record order; each scan's odometry is interpolated at the
 scan's header stamp between the two odometry poses around it.  Scans whose stamp went backwards, that have
-a different beam count, or that lie more than ``max_odom_gap_s`` outside the odometry stream are skipped
-with a warning that counts them.
+a different beam count, a header stamp far (``STAMP_TOLERANCE_S``) from their record time, or that lie more
+than ``max_odom_gap_s`` outside the odometry stream are skipped and counted in the one warning of
+:func:`mcnkit.io.plausible.plausible_frames`, which then checks that every frame is physically plausible.
+
+Header stamps are judged against the record times: the offset ``stamp - record time`` of each message is
+compared with the median offset of the last 15 messages of its stream (seeded with the first ones), so a clock
+that runs at a constant offset (a bag re-recorded later) is fine, while one stamp that jumped (damaged bytes)
+is dropped before it can hold up the scans behind it or make later odometry look as if it went backwards.
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ from __future__ import annotations
 import bisect
 import math
 import re
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -28,7 +34,8 @@ import numpy as np
 from mcnkit.geometry import compose, quaternion_to_yaw
 from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
 from mcnkit.io.decode import MessageDecoder
-from mcnkit.io.errors import LogError, as_log_error, warn_skipped
+from mcnkit.io.errors import PARSE_ERRORS, LogError, as_log_error
+from mcnkit.io.plausible import check_spec, spec_problem
 from mcnkit.io.sources import Connection, RawSource
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
 
@@ -40,6 +47,39 @@ POSE_TYPES = (ODOM_TYPE, "geometry_msgs/msg/PoseStamped")
 TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
 MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
 _GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
+STAMP_TOLERANCE_S = 3.0
+_STAMP_TOLERANCE_NS = int(STAMP_TOLERANCE_S * 1e9)
+_PENDING_NS = 10_000_000_000
+_SPEC_SCANS = 5  # the scanner is what most of the first scans say
+
+
+class _StampCheck:
+    """Whether a message's ``header stamp - record time`` is within ``STAMP_TOLERANCE_S`` of its stream's median
+    (of the last 15 offsets, refreshed every 8 messages)."""
+
+    def __init__(self) -> None:
+        self.offsets: deque[int] = deque(maxlen=15)
+        self._median: int | None = None
+        self._since = 0
+
+    def seed(self, offset: int) -> bool:
+        """Adds a first offset; True once the seed is complete."""
+        self.offsets.append(offset)
+        self._median = None
+        return len(self.offsets) == self.offsets.maxlen
+
+    def ok(self, offset: int) -> bool:
+        """Judges one offset (every offset, kept or not, moves the median: a lasting clock change is followed)."""
+        self.offsets.append(offset)
+        self._since += 1
+        if self._median is None or self._since >= 8:
+            ordered = sorted(self.offsets)
+            self._median, self._since = ordered[len(ordered) // 2], 0
+        if abs(offset - self._median) <= _STAMP_TOLERANCE_NS:
+            return True
+        ordered = sorted(self.offsets)  # the median may just have moved (a lasting change)
+        self._median, self._since = ordered[len(ordered) // 2], 0
+        return abs(offset - self._median) <= _STAMP_TOLERANCE_NS
 
 
 def _pick(conns: list[TopicInfo], preferred: str) -> str | None:
@@ -160,16 +200,36 @@ class BagLog(LogReader):
     def _lidar_spec(self) -> LidarSpec:
         if self._spec is None:
             topic = self._require_scan()
+            seen: Counter[tuple[float, float, int, float, float, str]] = Counter()
+            problems = []
             for conn, _, raw in self._src.messages([topic]):
-                s = self._decoder.scan(raw, conn.encoding)
+                try:
+                    s = self._decoder.scan(raw, conn.encoding)
+                except PARSE_ERRORS:
+                    continue
                 rmin, rmax = float(s.range_min_m), float(s.range_max_m)
                 if not (np.isfinite(rmax) and rmax > max(rmin, 0.0)):
-                    rmin, rmax = 0.0, float(np.nanmax(np.where(np.isfinite(s.ranges_m), s.ranges_m, 0.0))) + 1.0
-                self._spec = LidarSpec(float(s.angle_min_rad), float(s.angle_increment_rad), len(s.ranges_m),
-                                       max(rmin, 0.0), rmax, self._base_to_laser(s.frame_id.lstrip("/")))
-                break
-            else:
-                raise LogError(self.path, f"LaserScan topic {topic} has no messages")
+                    finite = s.ranges_m[np.isfinite(s.ranges_m)]
+                    rmin, rmax = 0.0, float(finite.max(initial=0.0)) + 1.0
+                key = (float(s.angle_min_rad), float(s.angle_increment_rad), len(s.ranges_m), max(rmin, 0.0), rmax,
+                       s.frame_id.lstrip("/"))
+                problem = spec_problem(LidarSpec(*key[:3], 0.0, 1.0)) if key[2] > 0 else "no beams"
+                if problem is None and not 0.0 <= key[3] < key[4]:
+                    problem = f"range interval [{key[3]!r}, {key[4]!r}] m"
+                if problem is None:
+                    problem = spec_problem(LidarSpec(*key[:5]))
+                if problem is None:
+                    seen[key] += 1
+                else:
+                    problems.append(problem)
+                if sum(seen.values()) + len(problems) >= _SPEC_SCANS:
+                    break
+            if not seen:
+                if problems:
+                    raise LogError(self.path, f"implausible scanner: {problems[0]}")
+                raise LogError(self.path, f"LaserScan topic {topic} has no (readable) messages")
+            key = seen.most_common(1)[0][0]
+            self._spec = check_spec(self.path, LidarSpec(*key[:5], self._base_to_laser(key[5])))
         return self._spec
 
     def time_range_ns(self) -> tuple[int, int]:
@@ -196,25 +256,49 @@ class BagLog(LogReader):
                 out.append((stamp or t, p.x, p.y, float(quaternion_to_yaw(np.array([q.x, q.y, q.z, q.w])))))
         return out
 
-    def frames(self) -> Iterator[Frame]:
-        """Time-ordered frames (see the module docstring)."""
+    def _read_frames(self, skipped: Counter[str]) -> Iterator[Frame]:
+        """Time-ordered frames (see the module docstring); what is skipped is counted into ``skipped``."""
         with as_log_error(self.path, "damaged data while reading frames"):
-            yield from self._frames()
+            yield from self._frames(skipped)
 
-    def _frames(self) -> Iterator[Frame]:
+    def _decoded_scan(self, conn: Connection, t: int, raw: bytes | memoryview) -> tuple[int, np.ndarray] | None:
+        try:
+            s = self._decoder.scan(raw, conn.encoding)
+        except PARSE_ERRORS:
+            return None
+        return s.stamp_ns or t, s.ranges_m
+
+    def _decoded_odom(self, conn: Connection, t: int, raw: bytes | memoryview) -> list[tuple[int, float, float, float]] | None:
+        try:
+            return self._odom_samples(conn, t, raw)
+        except PARSE_ERRORS:
+            return None
+
+    def _stamp_checks(self, scan_topic: str, odom_topic: str) -> tuple[_StampCheck, _StampCheck]:
+        """Header stamps against record times, seeded with the first messages of each stream."""
+        scans, odoms = _StampCheck(), _StampCheck()
+        for conn, t, raw in self._src.messages([scan_topic]):
+            if (s := self._decoded_scan(conn, t, raw)) is not None and scans.seed(s[0] - t):
+                break
+        for conn, t, raw in self._src.messages([odom_topic]):
+            if any(odoms.seed(sample[0] - t) for sample in self._decoded_odom(conn, t, raw) or []):
+                break
+        return scans, odoms
+
+    def _frames(self, skipped: Counter[str]) -> Iterator[Frame]:
         self.check_frames()
         scan_topic = self._require_scan()
         spec = self.lidar_spec
         odom_topic = "/tf" if self.odom_source.startswith("tf:") else self.odom_source
-        skipped = {"stamp went backwards": 0, "different beam count": 0, "no odometry near its stamp": 0}
+        scan_check, odom_check = self._stamp_checks(scan_topic, odom_topic)
         odom_t: deque[int] = deque(maxlen=256)
         odom_p: deque[tuple[float, float, float]] = deque(maxlen=256)
-        pending: deque[tuple[int, np.ndarray]] = deque()
-        last_scan = -(2**63)
-        odom_backwards = 0
+        pending: deque[tuple[int, np.ndarray, int]] = deque()  # (stamp, ranges, record time)
 
-        def emit(stamp: int, ranges: np.ndarray) -> Frame | None:
+        def emit(stamp: int, ranges: np.ndarray, _t: int) -> Frame | None:
             n = len(odom_t)
+            if n == 0:
+                return None
             if n >= 2 and odom_t[-2] <= stamp <= odom_t[-1]:  # the usual case: the last two samples bracket it
                 i = n - 1
             else:
@@ -237,40 +321,42 @@ class BagLog(LogReader):
 
         for conn, t, raw in self._src.messages([scan_topic, odom_topic]):
             if conn.topic == scan_topic:
-                s = self._decoder.scan(raw, conn.encoding)
-                stamp = s.stamp_ns or t
-                if len(s.ranges_m) != spec.n_beams:
+                s = self._decoded_scan(conn, t, raw)
+                if s is None:
+                    skipped["damaged message"] += 1
+                elif len(s[1]) != spec.n_beams:
                     skipped["different beam count"] += 1
-                elif stamp < last_scan:
-                    skipped["stamp went backwards"] += 1
+                elif not scan_check.ok(s[0] - t):
+                    skipped["stamp far from its record time"] += 1
                 else:
-                    last_scan = stamp
-                    pending.append((stamp, s.ranges_m))
+                    pending.append((s[0], s[1], t))
             else:
-                for sample in self._odom_samples(conn, t, raw):
-                    if odom_t and sample[0] <= odom_t[-1]:
+                samples = self._decoded_odom(conn, t, raw)
+                if samples is None:
+                    skipped["damaged odometry message"] += 1
+                for sample in samples or []:
+                    if not odom_check.ok(sample[0] - t):
+                        skipped["odometry stamp far from its record time"] += 1
+                    elif odom_t and sample[0] <= odom_t[-1]:
                         if sample[0] < odom_t[-1]:
-                            odom_backwards += 1
-                        continue  # odometry stamps must increase; a repeated or older sample adds nothing
-                    odom_t.append(sample[0])
-                    odom_p.append(sample[1:])
-            while pending and odom_t and odom_t[-1] >= pending[0][0]:
+                            skipped["odometry stamp went backwards"] += 1
+                        # odometry stamps must increase; a repeated or older sample adds nothing
+                    else:
+                        odom_t.append(sample[0])
+                        odom_p.append(sample[1:])
+            # a scan waits for the odometry after its stamp, but not for longer than _PENDING_NS of the log
+            while pending and ((odom_t and odom_t[-1] >= pending[0][0]) or t - pending[0][2] > _PENDING_NS):
                 frame = emit(*pending.popleft())
                 if frame is None:
                     skipped["no odometry near its stamp"] += 1
                 else:
                     yield frame
         while pending:
-            stamp, ranges = pending.popleft()
-            frame = emit(stamp, ranges) if odom_t else None
+            frame = emit(*pending.popleft())
             if frame is None:
                 skipped["no odometry near its stamp"] += 1
             else:
                 yield frame
-        if any(skipped.values()):
-            warn_skipped(self.path, "skipped scans: " + ", ".join(f"{n} ({why})" for why, n in skipped.items() if n))
-        if odom_backwards:
-            warn_skipped(self.path, f"skipped {odom_backwards} odometry sample(s) whose stamp went backwards")
 
     def ground_truth(self) -> Trajectory | None:
         """Poses from a topic whose name says ground truth (Odometry or PoseStamped)."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from mcnkit.io.errors import LogError
+from mcnkit.io.plausible import plausible_frames
 from mcnkit.types import Frame, LidarSpec, Trajectory
 
 __all__ = ["GroundTruthMap", "LogReader", "TopicInfo"]
@@ -69,9 +71,19 @@ class LogReader(ABC):
     def lidar_spec(self) -> LidarSpec:
         """The scanner of the scan topic (from its first message), mount offset included."""
 
-    @abstractmethod
     def frames(self) -> Iterator[Frame]:
-        """Time-ordered frames: scan, stamp and odometry at that stamp."""
+        """Time-ordered frames: scan, stamp and odometry at that stamp, each one physically plausible.
+
+        Every reader's frames pass through :func:`mcnkit.io.plausible.plausible_frames`: what a robot could not
+        have seen is dropped, counted in one warning (with what the reader itself skipped), or the log is refused
+        with a :class:`~mcnkit.io.errors.LogError` when nothing usable remains.
+        """
+        skipped: Counter[str] = Counter()
+        yield from plausible_frames(self.path, self._read_frames(skipped), skipped)
+
+    @abstractmethod
+    def _read_frames(self, skipped: Counter[str]) -> Iterator[Frame]:
+        """The frames as the log holds them; counts what it skips into ``skipped`` (reason -> scans)."""
 
     @abstractmethod
     def time_range_ns(self) -> tuple[int, int]:

@@ -64,6 +64,7 @@ from numpy.typing import NDArray
 from mcnkit.geometry import compose, relative, wrap_angle
 from mcnkit.io.base import LogReader, TopicInfo
 from mcnkit.io.errors import LogError, warn_skipped
+from mcnkit.io.plausible import MAX_RANGE_M, check_spec, step_possible
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
 
 __all__ = ["CarmenLog", "CarmenRecord", "is_carmen", "repair_stamps"]
@@ -311,7 +312,16 @@ def repair_stamps(stamps_ns: list[int | None], fallback_ns: NDArray[np.int64] | 
 def _spread(stamps: NDArray[np.int64]) -> NDArray[np.int64]:
     """Running maximum, then each run of equal values spread evenly up to the next larger value (the last run by
     the median step): strictly rising, as close to the given times as log order allows."""
-    m = np.maximum.accumulate(stamps.astype(np.int64))
+    t = stamps.astype(np.int64)
+    if len(t) >= 3:
+        # one stamp far ahead of the next while the one before is not (damaged digits) takes its predecessor's time
+        # instead of pulling every later stamp up to it
+        step = max(int(np.median(np.abs(np.diff(t)))), 1)
+        ahead = t[1:-1] - t[2:]
+        spike = np.flatnonzero((ahead > max(10 * step, 1_000_000_000)) & (t[:-2] <= t[2:])) + 1
+        t = t.copy()
+        t[spike] = t[spike - 1]
+    m = np.maximum.accumulate(t)
     k = len(m)
     starts = np.flatnonzero(np.r_[True, m[1:] != m[:-1]])
     ends = np.r_[starts[1:], k]
@@ -333,15 +343,23 @@ def _is_corrected_variant(scans: list[_Scan], p: _Parsed, key: str) -> bool:
     return hits >= 0.9 * len(pairs)
 
 
-def _rebuild_raw_odometry(scans: list[_Scan], p: _Parsed) -> NDArray[np.float64]:
+def _rebuild_raw_odometry(scans: list[_Scan], p: _Parsed, stamps: NDArray[np.int64]) -> tuple[NDArray[np.float64], int]:
+    """The raw odometry chain, and how many increments were a move no robot makes (damaged numbers: read as no
+    motion, so that one bad line does not move every pose after it)."""
     corrected = np.asarray([s.pose for s in scans], dtype=np.float64)
     odom = np.empty_like(corrected)
-    odom[0] = corrected[0]
+    odom[0] = corrected[0] if np.isfinite(corrected[0]).all() else 0.0
+    bad = 0
+    zero = Pose2D()
     for k in range(len(corrected) - 1):
         j = scans[k + 1].odom_index
         increment = relative(corrected[k], np.asarray(p.odom[j])) if j >= 0 else np.zeros(3)
+        if not (np.isfinite(increment).all()
+                and step_possible(int(stamps[k]), zero, int(stamps[k + 1]), Pose2D.from_array(increment))):
+            bad += 1
+            increment = np.zeros(3)
         odom[k + 1] = compose(odom[k], increment)
-    return odom
+    return odom, bad
 
 
 def _odometry_from_stream(path: Path, scans: list[_Scan], stamps: NDArray[np.int64], p: _Parsed,
@@ -366,7 +384,7 @@ def _range_max(ranges: NDArray[np.float32]) -> float:
     (81.91 and 81.83 on SICK scanners in CARMEN logs, 50.00 / 51.14 / 51.15 in others, several in one log): a
     1 cm bin within the top 10 % of the readings' span holding at least 20 readings and 0.05 % of all of them.
     """
-    allr = ranges[np.isfinite(ranges) & (ranges > 0)]
+    allr = ranges[np.isfinite(ranges) & (ranges > 0) & (ranges <= MAX_RANGE_M)]  # farther: no scanner's reading
     if len(allr) == 0:
         return 1.0
     top = float(allr.max())
@@ -397,12 +415,13 @@ class CarmenLog(LogReader):
         self.laser_lines = len(scans) + p.skipped.get(key, 0)
         """Laser lines of the chosen laser in the log (read or not)."""
         self.laser_keyword = key
-        beams = Counter(len(s.ranges) for s in scans)
-        n_beams = beams.most_common(1)[0][0]
+        beams = Counter((len(s.ranges), s.geometry) for s in scans)
+        n_beams, geometry = beams.most_common(1)[0][0]
         if len(beams) > 1:
-            n_other = sum(c for b, c in beams.items() if b != n_beams)
-            warn_skipped(path, f"{n_other} {key} line(s) with another beam count than the {n_beams} of the rest skipped")
-            scans = [s for s in scans if len(s.ranges) == n_beams]
+            n_other = sum(c for b, c in beams.items() if b != (n_beams, geometry))
+            warn_skipped(path, f"{n_other} {key} line(s) with another beam count or geometry than the {n_beams} beams "
+                               "of the rest skipped")
+            scans = [s for s in scans if len(s.ranges) == n_beams and s.geometry == geometry]
         if p.skipped:
             parts = ", ".join(f"{c} {k} (first at line {p.first_skipped[k]})" for k, c in p.skipped.items())
             warn_skipped(path, f"malformed line(s) skipped: {parts}")
@@ -419,7 +438,9 @@ class CarmenLog(LogReader):
         self._keywords: dict[str, int] | None = None
         if self.format == "carmen" and _is_corrected_variant(scans, p, key):
             self.format = "carmen-corrected"
-            odom = _rebuild_raw_odometry(scans, p)
+            odom, bad = _rebuild_raw_odometry(scans, p, stamps)
+            if bad:
+                warn_skipped(path, f"{bad} odometry increment(s) a robot cannot make (damaged numbers?) read as no motion")
             self._gt = Trajectory(stamps.copy(), np.asarray([s.pose for s in scans], dtype=np.float64))
         elif scans[0].odom is None:
             odom = _odometry_from_stream(path, scans, stamps, p, odom_stamps if odom_ok and problem is None else None)
@@ -433,17 +454,21 @@ class CarmenLog(LogReader):
             gt_poses = self._gt.poses.copy()
             gt_poses[:, 2] = wrap_angle(gt_poses[:, 2])
             self._gt = Trajectory(self._gt.stamps_ns, gt_poses)
-        amin, inc, max_range = scans[0].geometry
+        amin, inc, max_range = geometry
         # The scan line's laser pose and robot pose give the mount offset of the laser on the base.
         first = scans[0]
         offset = np.zeros(3)
         if self.format == "carmen" and first.pose is not None and first.odom is not None:
             offset = np.round(relative(np.asarray(first.odom), np.asarray(first.pose)), 9)
-            if np.hypot(offset[0], offset[1]) > 2.0:  # not a mount offset: the two poses are in different frames
+            if not np.isfinite(offset).all() or np.hypot(offset[0], offset[1]) > 2.0:  # not a mount offset
                 offset = np.zeros(3)
         offset += 0.0  # no negative zeros
         rmax = _range_max(self._ranges) if math.isinf(max_range) else max_range
-        self._spec = LidarSpec(amin, inc, int(self._ranges.shape[1]), 0.0, rmax, Pose2D.from_array(offset))
+        try:
+            spec = LidarSpec(amin, inc, int(self._ranges.shape[1]), 0.0, rmax, Pose2D.from_array(offset))
+        except ValueError as err:
+            raise LogError(path, f"implausible scanner: {err}") from err
+        self._spec = check_spec(path, spec)
 
     @property
     def topics(self) -> list[TopicInfo]:
@@ -481,7 +506,7 @@ class CarmenLog(LogReader):
         """First and last scan stamp."""
         return int(self._stamps[0]), int(self._stamps[-1])
 
-    def frames(self) -> Iterator[Frame]:
+    def _read_frames(self, skipped: Counter[str]) -> Iterator[Frame]:
         """Every scan read, in log order, with its odometry pose."""
         for stamp, ranges, odom in zip(self._stamps, self._ranges, self._odom, strict=True):
             yield Frame(int(stamp), Scan(ranges, self._spec), Pose2D.from_array(odom))

@@ -14,13 +14,19 @@ import zstandard
 from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError
 
-__all__ = ["DECODE_ERRORS", "LogError", "LogWarning", "as_log_error", "warn_skipped"]
+__all__ = ["DECODE_ERRORS", "PARSE_ERRORS", "LogError", "LogWarning", "as_log_error", "warn_skipped"]
 
 # What parsers of damaged bytes raise (struct, codecs, decompressors, rosbags' deserialisers).
 DECODE_ERRORS: tuple[type[BaseException], ...] = (
     ValueError, KeyError, IndexError, TypeError, AttributeError, AssertionError, EOFError, OSError, RuntimeError,
     OverflowError, MemoryError, RecursionError, struct.error, zlib.error, zstandard.ZstdError, SerdeError,
     TypesysError, sqlite3.Error,
+)
+
+# What decoding one damaged message raises: a message failing with one of these is skipped and counted.  Programming
+# errors (TypeError, AttributeError, ...) are not among them.
+PARSE_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError, KeyError, IndexError, EOFError, OverflowError, struct.error, SerdeError,
 )
 
 

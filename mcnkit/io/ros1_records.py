@@ -11,7 +11,7 @@ from __future__ import annotations
 import bz2
 import heapq
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -152,36 +152,71 @@ def read_ros1_records(path: Path) -> RecoveredBag:
     return bag
 
 
-def _chunk_messages(f: BinaryIO, pos: int, conn_ids: set[int]) -> list[tuple[int, int, bytes]]:
+def _salvage(kind: bytes, data: bytes) -> bytes:
+    """What decompresses of a damaged chunk before the damage (fed in pieces: output before the error is kept)."""
+    if kind == b"none":
+        return data
+    d: Any = bz2.BZ2Decompressor() if kind == b"bz2" else lz4.frame.LZ4FrameDecompressor()
+    out = bytearray()
+    for i in range(0, len(data), 4096):
+        try:
+            out += d.decompress(data[i : i + 4096])
+        except (OSError, RuntimeError, ValueError, EOFError):
+            break
+    return bytes(out)
+
+
+def _chunk_messages(
+    f: BinaryIO, pos: int, conn_ids: set[int], on_damaged: Callable[[str], None] | None = None
+) -> list[tuple[int, int, bytes]]:
     f.seek(pos)
     (hlen,) = _U32.unpack(f.read(4))
     fields = _fields(f.read(hlen))
     (dlen,) = _U32.unpack(f.read(4))
-    inner = _decompress(fields.get("compression", b"none"), f.read(dlen))
+    raw = f.read(dlen)
+    kind = fields.get("compression", b"none")
+    damaged = None
+    try:
+        inner = _decompress(kind, raw)
+    except (OSError, RuntimeError, ValueError, EOFError) as err:
+        if on_damaged is None:
+            raise
+        inner, damaged = _salvage(kind, raw), str(err) or type(err).__name__
     out, off, end = [], 0, len(inner)
     unpack, unpack_time = _U32.unpack_from, _TIME.unpack_from
-    while off + 4 <= end:
-        (hlen,) = unpack(inner, off)
-        header = inner[off + 4 : off + 4 + hlen]
-        (dlen,) = unpack(inner, off + 4 + hlen)
-        dstart = off + 8 + hlen
-        # Message-data headers hold op, conn and time: find them by name instead of parsing every field.
-        if b"op=\x02" in header:
-            conn = unpack(header, header.find(b"conn=") + 5)[0]
-            if conn in conn_ids:
-                sec, nsec = unpack_time(header, header.find(b"time=") + 5)
-                out.append((sec * 1_000_000_000 + nsec, conn, inner[dstart : dstart + dlen]))
-        off = dstart + dlen
+    try:
+        while off + 4 <= end:
+            (hlen,) = unpack(inner, off)
+            header = inner[off + 4 : off + 4 + hlen]
+            (dlen,) = unpack(inner, off + 4 + hlen)
+            dstart = off + 8 + hlen
+            if dstart + dlen > end:
+                raise ValueError("a record runs past the end of its chunk")
+            # Message-data headers hold op, conn and time: find them by name instead of parsing every field.
+            if b"op=\x02" in header:
+                conn = unpack(header, header.find(b"conn=") + 5)[0]
+                if conn in conn_ids:
+                    sec, nsec = unpack_time(header, header.find(b"time=") + 5)
+                    out.append((sec * 1_000_000_000 + nsec, conn, inner[dstart : dstart + dlen]))
+            off = dstart + dlen
+    except (struct.error, ValueError) as err:
+        if on_damaged is None:
+            raise
+        damaged = damaged or str(err)
+    if damaged is not None and on_damaged is not None:
+        on_damaged(damaged)
     out.sort(key=lambda m: m[0])
     return out
 
 
 def iter_indexed_messages(
-    path: Path, chunk_infos: list[Any], conn_ids: set[int]
+    path: Path, chunk_infos: list[Any], conn_ids: set[int], on_damaged: Callable[[str], None] | None = None
 ) -> Iterator[tuple[int, int, bytes]]:
     """``(time ns, conn id, raw)`` in time order from an indexed bag's chunks (``rosbags`` ChunkInfo list).
 
-    Each chunk is read and decompressed once; chunks whose time ranges overlap are merged.
+    Each chunk is read and decompressed once; chunks whose time ranges overlap are merged.  With
+    ``on_damaged``, a chunk that does not decompress or split into records gives the messages before the damage
+    and is reported to it; without, the error is raised.
     """
     infos = sorted((c for c in chunk_infos if any(k in conn_ids for k in c.connection_counts)),
                    key=lambda c: (c.start_time, c.pos))
@@ -192,7 +227,13 @@ def iter_indexed_messages(
             if group and c.start_time >= group_end:
                 yield from (heapq.merge(*group, key=lambda m: m[0]) if len(group) > 1 else group[0])
                 group = []
-            group.append(_chunk_messages(f, c.pos, conn_ids))
+            try:
+                group.append(_chunk_messages(f, c.pos, conn_ids, on_damaged))
+            except (struct.error, ValueError, KeyError, OSError) as err:
+                if on_damaged is None:
+                    raise
+                on_damaged(f"chunk header: {err}")
+                continue
             group_end = max(group_end, c.end_time)
         if group:
             yield from (heapq.merge(*group, key=lambda m: m[0]) if len(group) > 1 else group[0])

@@ -18,11 +18,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
+import zstandard
+from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from mcnkit.io.decode import normalize_msgtype
-from mcnkit.io.errors import LogError, warn_skipped
-from mcnkit.io.mcap_chunks import iter_chunk_messages, read_mcap_records
+from mcnkit.io.errors import PARSE_ERRORS, LogError, warn_skipped
+from mcnkit.io.mcap_chunks import iter_chunk_messages, read_mcap_records, summary_crc_ok
 from mcnkit.io.ros1_records import ChunkInfo, iter_indexed_messages, read_ros1_index, read_ros1_records
 
 __all__ = ["Connection", "McapSource", "RawMessage", "RawSource", "Ros1BagSource", "SqliteSource"]
@@ -42,6 +44,9 @@ class Connection:
 
 
 RawMessage = tuple[Connection, int, bytes | memoryview]
+
+# What reading a damaged MCAP chunk through the ``mcap`` package raises.
+_MCAP_ERRORS: tuple[type[BaseException], ...] = (*PARSE_ERRORS, RuntimeError, McapError, zstandard.ZstdError)
 
 
 class RawSource:
@@ -110,11 +115,15 @@ class Ros1BagSource(RawSource):
             return
         if not by_id:
             return
+        damaged: list[str] = []
         try:
-            for stamp, conn_id, raw in iter_indexed_messages(self.path, self._chunks, set(by_id)):
+            for stamp, conn_id, raw in iter_indexed_messages(self.path, self._chunks, set(by_id), damaged.append):
                 yield by_id[conn_id], stamp, raw
         except (ValueError, KeyError, OSError, RuntimeError, struct.error) as err:
             warn_skipped(self.path, f"stopped reading at a damaged chunk: {err}")
+        if damaged:
+            warn_skipped(self.path, f"{len(damaged)} damaged chunk(s): read the messages before the damage "
+                                    f"({damaged[0]})")
 
     def time_range_ns(self) -> tuple[int, int]:
         """From the bag's index when it has one."""
@@ -139,6 +148,7 @@ class SqliteSource(RawSource):
                 defs = _sqlite_definitions(db)
             except sqlite3.DatabaseError as err:
                 raise LogError(f, f"not a readable rosbag2 sqlite3 file ({err})") from None
+            _quick_check(f, db)
             self._dbs.append((f, db))
             for tid, name, msgtype, fmt in topics:
                 if fmt != "cdr":
@@ -171,16 +181,26 @@ class SqliteSource(RawSource):
                     f"SELECT timestamp, topic_id, data FROM messages WHERE topic_id IN ({marks}) ORDER BY timestamp",
                     list(by_id),
                 )
-                streams.append(((t, by_id[tid], data) for t, tid, data in cur))
+                # a damaged row may hold values of other types: it sorts first here and is skipped below
+                streams.append(((t, by_id[tid], data) if type(t) is int and isinstance(data, bytes) and tid in by_id
+                                else (-(2**63), None, b"") for t, tid, data in cur))
+        odd = 0
         try:
             for t, conn, data in heapq.merge(*streams, key=lambda m: m[0]):
-                yield conn, t, data
+                if conn is None:
+                    odd += 1
+                else:
+                    yield conn, t, data
         except sqlite3.DatabaseError as err:
             warn_skipped(self.path, f"stopped at a damaged database page ({err})")
+        if odd:
+            warn_skipped(self.path, f"skipped {odd} message row(s) whose timestamp is not an integer or whose data is "
+                                    "not a blob (damaged rows)")
 
     def time_range_ns(self) -> tuple[int, int]:
         """From the message tables."""
-        ranges = [db.execute("SELECT min(timestamp), max(timestamp) FROM messages").fetchone() for _, db in self._dbs]
+        ranges = [db.execute("SELECT min(timestamp), max(timestamp) FROM messages WHERE typeof(timestamp) = 'integer'")
+                  .fetchone() for _, db in self._dbs]
         ranges = [r for r in ranges if r[0] is not None]
         return (min(r[0] for r in ranges), max(r[1] for r in ranges)) if ranges else (0, 0)
 
@@ -188,6 +208,19 @@ class SqliteSource(RawSource):
         """Closes the databases."""
         for _, db in self._dbs:
             db.close()
+
+
+def _quick_check(f: Path, db: sqlite3.Connection) -> None:
+    """SQLite's own structural check of every page (``PRAGMA quick_check``: b-trees, record formats, NOT NULL
+    columns; linear in the file's size): problems are counted in one warning, and what stays readable is read."""
+    try:
+        rows = [r[0] for r in db.execute("PRAGMA quick_check(100)")]
+    except sqlite3.DatabaseError as err:
+        rows = [str(err)]
+    if rows != ["ok"]:
+        more = "+" if len(rows) >= 100 else ""
+        warn_skipped(f, f"sqlite integrity check found {len(rows)}{more} problem(s) (first: {rows[0]}); reading the "
+                        "rows that remain readable")
 
 
 def _readonly_uri(f: Path) -> str:
@@ -225,10 +258,13 @@ class McapSource(RawSource):
 
     def _scan_connections(self, f: Path) -> list[Connection]:
         with self._open(f) as stream:
+            crc_ok = summary_crc_ok(stream)
             try:
-                summary = make_reader(stream).get_summary()
+                summary = make_reader(stream).get_summary() if crc_ok is not False else None
             except Exception:  # noqa: BLE001 - no footer/summary: fall back to streaming
                 summary = None
+            if crc_ok is False:
+                warn_skipped(f, "the summary section does not match its CRC; read record by record instead")
             if summary is not None and summary.statistics is not None:
                 counts = summary.statistics.channel_message_counts
                 self._streamed[str(f)] = False
@@ -241,6 +277,10 @@ class McapSource(RawSource):
         if rec.stopped_at is not None:
             warn_skipped(f, f"no usable summary; read {len(rec.messages)} message(s) record by record, the rest "
                          f"from byte {rec.stopped_at} on is unreadable ({rec.stop_reason})")
+        if rec.damaged_chunks:
+            warn_skipped(f, f"skipped {rec.damaged_chunks} damaged chunk(s) (CRC mismatch or undecodable)")
+        if rec.data_crc_ok is False and not rec.damaged_chunks:
+            warn_skipped(f, "the data section does not match its CRC (damage outside the chunks)")
         self._recovered[str(f)] = sorted(rec.messages, key=lambda m: m[0])
         n_msgs: dict[int, int] = {}
         for _, cid, _ in rec.messages:
@@ -272,15 +312,19 @@ class McapSource(RawSource):
             reader = make_reader(stream)
             summary = reader.get_summary()
             ids = {c.key[1] for c in by_key.values() if c.key[0] == str(f) and (wanted is None or c.topic in wanted)}
+            damaged: list[Exception] = []
             try:
                 if summary is not None and summary.chunk_indexes:
-                    for log_time, cid, data in iter_chunk_messages(stream, summary, ids):
+                    for log_time, cid, data in iter_chunk_messages(stream, summary, ids, damaged.append):
                         yield by_key[(str(f), cid)], log_time, data
-                    return
-                for _, ch, m in reader.iter_messages(topics=None if wanted is None else list(wanted)):
-                    yield by_key[(str(f), ch.id)], m.log_time, m.data
-            except Exception as err:  # noqa: BLE001 - a damaged chunk in an indexed file
-                warn_skipped(f, f"stopped at a damaged chunk ({err})")
+                else:
+                    checked = make_reader(stream, validate_crcs=True)
+                    for _, ch, m in checked.iter_messages(topics=None if wanted is None else list(wanted)):
+                        yield by_key[(str(f), ch.id)], m.log_time, m.data
+            except _MCAP_ERRORS as err:  # a damaged chunk
+                warn_skipped(f, f"stopped at a damaged chunk ({type(err).__name__}: {err})")
+            if damaged:
+                warn_skipped(f, f"skipped {len(damaged)} damaged chunk(s) ({damaged[0]})")
 
 
 def _mcap_connection(f: Path, channel: object, schema: object, count: int) -> Connection:

@@ -18,7 +18,16 @@ from numpy.typing import NDArray
 
 from mcnkit.types import GridSpec
 
-__all__ = ["TiledHitMaps", "cell_of"]
+__all__ = ["MAX_TABLE_BYTES", "MapLimitError", "TiledHitMaps", "cell_of"]
+
+MAX_TABLE_BYTES = 1 << 30
+"""The tile tables of all particles together may take at most this much memory (1 GiB: 30 particles at 5 cm
+cells span about 2.3 × 2.3 km).  A log whose path and sensor range need more is refused by :class:`MapLimitError`
+instead of growing without bound (readers already drop odometry a robot cannot make)."""
+
+
+class MapLimitError(ValueError):
+    """A map would grow past :data:`MAX_TABLE_BYTES`; the message says how far it would reach."""
 
 F64 = NDArray[np.float64]
 I32 = NDArray[np.int32]
@@ -183,7 +192,13 @@ class TiledHitMaps:
             lo_x, lo_y = min(lo_x, self.tx0), min(lo_y, self.ty0)
             hi_x, hi_y = max(hi_x, self.tx0 + tw - 1), max(hi_y, self.ty0 + th - 1)
         new_tx0, new_ty0 = lo_x - e, lo_y - e
-        table = np.full((n, hi_y + e - new_ty0 + 1, hi_x + e - new_tx0 + 1), -1, dtype=np.int32)
+        shape = (n, hi_y + e - new_ty0 + 1, hi_x + e - new_tx0 + 1)
+        if shape[0] * shape[1] * shape[2] * 4 > MAX_TABLE_BYTES:
+            raise MapLimitError(
+                f"the map would span {shape[2] * span:.0f} m × {shape[1] * span:.0f} m, {shape[0]} particles × "
+                f"{shape[1] * shape[2] * 4 / 2**20:.0f} MiB of tile tables, more than the limit of "
+                f"{MAX_TABLE_BYTES / 2**30:.0f} GiB")
+        table = np.full(shape, -1, dtype=np.int32)
         oy, ox = self.ty0 - new_ty0, self.tx0 - new_tx0
         table[:, oy : oy + th, ox : ox + tw] = self.table
         self.table, self.tx0, self.ty0 = table, new_tx0, new_ty0

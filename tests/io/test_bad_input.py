@@ -127,3 +127,128 @@ def test_a_rosbag2_folder_with_a_missing_file(tmp_path: Path, frames: list[Frame
     (path / "bag2.db3").unlink()
     with pytest.raises(LogError, match="missing"):
         open_log(path)
+
+
+def test_a_map_beyond_its_memory_limit_is_a_clear_error() -> None:
+    from mcnkit.slam.maps import MapLimitError, TiledHitMaps
+
+    maps = TiledHitMaps(30, 0.05)
+    maps.integrate(np.array([[0.0, 1.0]] * 30), np.array([[0.0, 1.0]] * 30))
+    with pytest.raises(MapLimitError, match="the map would span"):
+        maps.integrate(np.array([[0.0, 1e5]] * 30), np.array([[0.0, 1e5]] * 30))
+
+
+def _moved(frames: list[Frame], i: int, dx: float) -> list[Frame]:
+    from mcnkit.types import Pose2D
+
+    out = list(frames)
+    f = out[i]
+    out[i] = Frame(f.stamp_ns, f.scan, Pose2D(f.odom.x_m + dx, f.odom.y_m, f.odom.yaw_rad))
+    return out
+
+
+def test_one_odometry_outlier_is_dropped_with_one_warning(frames: list[Frame]) -> None:
+    from mcnkit.io.plausible import plausible_frames
+
+    with pytest.warns(LogWarning, match=r"skipped scans: 1 \(odometry a robot cannot reach\)") as record:
+        out = list(plausible_frames("x.bag", _moved(frames, 7, 50.0)))
+    assert len(record) == 1
+    assert [f.stamp_ns for f in out] == [f.stamp_ns for i, f in enumerate(frames) if i != 7]
+    assert all(a.odom == b.odom for a, b in zip(out, [f for i, f in enumerate(frames) if i != 7], strict=True))
+
+
+def test_a_lasting_odometry_jump_is_re_anchored_as_no_motion(frames: list[Frame]) -> None:
+    from mcnkit.io.plausible import plausible_frames
+
+    jumped = list(frames)
+    for i in range(8, len(jumped)):
+        jumped = _moved(jumped, i, 1e5)
+    with pytest.warns(LogWarning, match=r"re-anchored after 1 jump"):
+        out = list(plausible_frames("x.bag", jumped))
+    assert len(out) == len(frames)
+    assert out[8].odom == out[7].odom  # the jump reads as no motion
+    later = np.array([[f.odom.x_m, f.odom.y_m] for f in out[8:]])
+    orig = np.array([[f.odom.x_m, f.odom.y_m] for f in frames[8:]])
+    step = np.hypot(*np.diff(later, axis=0).T)
+    assert np.allclose(step, np.hypot(*np.diff(orig, axis=0).T), atol=1e-9)  # the motion after it is kept
+
+
+def test_a_stamp_that_jumped_ahead_does_not_hide_the_scans_after_it(frames: list[Frame]) -> None:
+    from mcnkit.io.plausible import plausible_frames
+
+    bad = list(frames)
+    bad[3] = Frame(bad[3].stamp_ns + 10**12, bad[3].scan, bad[3].odom)
+    with pytest.warns(LogWarning, match=r"1 \(stamp out of order\)"):
+        out = list(plausible_frames("x.bag", bad))
+    assert len(out) == len(frames) - 1
+
+
+def test_impossible_ranges_are_dropped_and_a_log_of_nothing_else_is_refused(frames: list[Frame]) -> None:
+    from mcnkit.io.plausible import plausible_frames
+    from mcnkit.types import Scan
+
+    def with_range(f: Frame, v: float) -> Frame:
+        r = f.scan.ranges_m.copy()
+        r[0] = v
+        return Frame(f.stamp_ns, Scan(r, f.scan.spec), f.odom)
+
+    # inf / NaN / just beyond the limit are "no return"; negative or far beyond are impossible
+    mixed = [with_range(f, v) for f, v in zip(frames, [np.inf, np.nan, 10.5, -3.0, 1e30] * 4, strict=True)]
+    with pytest.warns(LogWarning, match=r"4 \(negative range\), 4 \(range beyond the scanner's limit\)"):
+        assert len(list(plausible_frames("x.bag", mixed))) == 12
+    with pytest.raises(LogError, match=r"x\.bag: no usable scans: 20 \(negative range\)"):
+        list(plausible_frames("x.bag", [with_range(f, -1.0) for f in frames]))
+
+
+def test_a_carmen_log_with_a_1e38_range_reads_and_maps(tmp_path: Path) -> None:
+    from mcnkit.slam import FastSlam, SlamConfig
+
+    lines = []
+    for k in range(30):
+        ranges = [f"{1.0 + 0.01 * i:.2f}" for i in range(181)]
+        if k == 12:
+            ranges[40] = "1e38"
+        lines.append(f"FLASER 181 {' '.join(ranges)} {0.05 * k} 0 0 {0.05 * k} 0 0 {1 + 0.1 * k:.1f} host 0")
+    path = tmp_path / "big.log"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.warns(LogWarning, match=r"1 \(range beyond the scanner's limit\)"):
+        with open_log(path) as log:
+            assert log.lidar_spec.range_max_m < 3.0  # the 1e38 reading does not set the limit
+            got = list(log.frames())
+    assert len(got) == 29
+    slam = FastSlam(SlamConfig(n_particles=3), np.random.default_rng(0))
+    for f in got:
+        slam.step(f)
+    assert slam.best_ternary().image.size < 10**6
+
+
+def test_a_sqlite_row_with_a_non_integer_timestamp_is_skipped(tmp_path: Path, frames: list[Frame]) -> None:
+    import sqlite3
+
+    from mcnkit.io.cli import describe
+
+    path = write_log(tmp_path / "bag2", LogContent(frames), "ros2-sqlite3")
+    db = sqlite3.connect(path / "bag2.db3")
+    db.execute("UPDATE messages SET timestamp = X'0102' WHERE id = (SELECT min(id) FROM messages)")
+    db.execute("UPDATE messages SET timestamp = 1.5 WHERE id = (SELECT max(id) FROM messages)")
+    db.commit()
+    db.close()
+    with open_log(path) as log, pytest.warns(LogWarning, match=r"message row\(s\) whose timestamp is not an integer"):
+        info = describe(log)
+        start, end = info["start_ns"], info["end_ns"]
+        assert isinstance(start, int) and isinstance(end, int) and start <= end
+        assert 0 < len(list(log.frames())) <= len(frames)
+
+
+def test_an_mcap_chunk_that_fails_its_crc_is_skipped_with_a_count(tmp_path: Path) -> None:
+    frames = make_frames(n=1500, beams=360)  # four chunks
+    path = write_log(tmp_path / "a.mcap", LogContent(frames), "mcap")
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0x40  # inside the second compressed chunk
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    with open_log(bad) as log, pytest.warns(LogWarning, match=r"damaged chunk"):
+        got = list(log.frames())
+    clean = {f.stamp_ns: f for f in frames}
+    assert len(got) < len(frames)
+    assert all(np.array_equal(f.scan.ranges_m, clean[f.stamp_ns].scan.ranges_m, equal_nan=True) for f in got)

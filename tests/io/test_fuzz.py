@@ -6,15 +6,22 @@ for everything a user can ask (topics, time range, scanner, frames, ground truth
 
 from __future__ import annotations
 
+import contextlib
+import gzip
+import io
+import random
 import shutil
 import warnings
+from collections import Counter
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mcnkit.io import LogContent, LogError, open_log, write_log
+from mcnkit.io import LogContent, LogError, LogWarning, open_log, write_log
+from mcnkit.types import Frame
 from tests.conftest import make_frames
 
 _FORMATS = {"ros1": "log.bag", "mcap": "log.mcap", "mcap-ros1": "ros1.mcap", "ros2-sqlite3": "sq", "ros2-mcap": "mc"}
@@ -98,3 +105,108 @@ def test_corrupted_bags_written_by_ros_tools_raise_only_log_error(
         _read_everything(target)
     except LogError as err:
         assert str(err).startswith(str(target)) and "\n" not in str(err)
+
+
+# -- seeded byte-flip mutants of every format, as benchmarks/bench_fuzz.py runs them (smaller) ------------------------
+
+_MUTANT_FORMATS = {"ros1": "log.bag", "mcap": "log.mcap", "ros2-sqlite3": "log_sqlite3", "carmen": "log.log"}
+
+
+def _physically_possible(frames: list[Frame]) -> str | None:
+    """Independent of mcnkit.io.plausible: distances not negative and within twice the scanner's limit, finite
+    odometry moving at most 10 m/s (+2 m) and 2π rad/s (+1 rad), stamps that do not go back."""
+    prev = None
+    for f in frames:
+        spec = f.scan.spec
+        r = f.scan.ranges_m[np.isfinite(f.scan.ranges_m)]
+        if not 0 <= spec.range_min_m < spec.range_max_m <= 1000 or (len(r) and (r.min() < 0 or r.max() > 2 * spec.range_max_m)):
+            return f"ranges {r.min()}..{r.max()} for limit {spec.range_max_m}"
+        o = f.odom.as_array()
+        if not np.isfinite(o).all():
+            return f"odometry {o}"
+        if prev is not None:
+            dt = (f.stamp_ns - prev.stamp_ns) / 1e9
+            da = abs((o[2] - prev.odom.yaw_rad + np.pi) % (2 * np.pi) - np.pi)
+            if dt < 0 or np.hypot(o[0] - prev.odom.x_m, o[1] - prev.odom.y_m) > 10 * dt + 2 or da > 2 * np.pi * dt + 1:
+                return f"step from {prev.odom} to {f.odom} in {dt} s"
+        prev = f
+    return None
+
+
+@pytest.fixture(scope="module")
+def mutant_sources(tmp_path_factory: pytest.TempPathFactory, shared_data: Path) -> dict[str, tuple[Path, list[Frame]]]:
+    root = tmp_path_factory.mktemp("sources")
+    lines, scans = [], 0
+    with gzip.open(shared_data / "reallab" / "intel" / "intel-corrected.log.gz", "rt", encoding="ascii") as f:
+        for line in f:
+            if line.startswith("FLASER"):
+                if scans == 120:
+                    break
+                scans += 1
+            lines.append(line)
+    carmen = root / "log.log"
+    carmen.write_text("".join(lines))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with open_log(carmen) as log:
+            content = LogContent(list(log.frames()), ground_truth=log.ground_truth())
+    out = {"carmen": (carmen, list(content.frames))}
+    for fmt in ("ros1", "mcap", "ros2-sqlite3"):
+        path = write_log(root / _MUTANT_FORMATS[fmt], content, fmt)
+        with open_log(path) as log:
+            out[fmt] = (path, list(log.frames()))
+    return out
+
+
+def _same(a: list[Frame], b: list[Frame]) -> bool:
+    return len(a) == len(b) and all(
+        x.stamp_ns == y.stamp_ns and x.scan.ranges_m.tobytes() == y.scan.ranges_m.tobytes() and x.odom == y.odom
+        for x, y in zip(a, b, strict=True))
+
+
+@pytest.mark.parametrize("fmt", list(_MUTANT_FORMATS))
+def test_byte_flip_mutants_are_refused_warned_or_plausible(
+    fmt: str, mutant_sources: dict[str, tuple[Path, list[Frame]]], tmp_path: Path
+) -> None:
+    """20 seeded mutants per format (1-16 flipped bytes): `mcnkit info` exits 0 or 2 without a traceback; the frame
+    read either refuses the log with one line or passes on only physically possible frames; an MCAP mutant that
+    reads without a warning reads exactly the clean frames (its CRCs catch the rest); SLAM runs on what is read."""
+    from mcnkit.cli import main
+    from mcnkit.slam import FastSlam, SlamConfig
+
+    clean, clean_frames = mutant_sources[fmt]
+    rng = random.Random(17 + list(_MUTANT_FORMATS).index(fmt))
+    outcomes: Counter[str] = Counter()
+    for k in range(20):
+        raw = bytearray(_data_file(clean).read_bytes())
+        for _ in range(rng.randint(1, 16)):
+            raw[rng.randrange(len(raw))] ^= rng.randint(1, 255)
+        target = tmp_path / str(k) / clean.name
+        target.parent.mkdir()
+        if clean.is_dir():
+            shutil.copytree(clean, target)
+            _data_file(target).write_bytes(bytes(raw))
+        else:
+            target.write_bytes(bytes(raw))
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()) as err:
+            assert main(["info", str(target)]) in (0, 2)
+        assert "Traceback" not in err.getvalue()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                with open_log(target) as log:
+                    frames = list(log.frames())
+            except LogError as e:
+                assert str(e).startswith(str(target.parent)) and "\n" not in str(e)
+                outcomes["refused"] += 1
+                continue
+        assert _physically_possible(frames) is None, f"mutant {k}: {_physically_possible(frames)}"
+        warned = [w for w in caught if issubclass(w.category, LogWarning)]
+        if fmt == "mcap" and not warned:
+            assert _same(frames, clean_frames), f"mutant {k}: an MCAP changed without a warning"
+        outcomes["warned" if warned else "same" if _same(frames, clean_frames) else "changed"] += 1
+        if k % 3 == 0 and frames:
+            slam = FastSlam(SlamConfig(n_particles=3), np.random.default_rng(0))
+            for f in frames[:15]:
+                slam.step(f)
+    assert sum(outcomes.values()) == 20

@@ -29,7 +29,7 @@ def _write_clf(path: Path, n: int = 30) -> None:
         side = np.where(np.sin(angles) > 0, 2.0, -2.0)
         with np.errstate(divide="ignore"):
             r = np.abs(side / np.sin(angles))
-        r = np.minimum(r, 8.0 - x / np.maximum(np.cos(angles), 1e-3))  # end wall at x = 8
+        r = np.minimum(r, (8.0 - x) / np.maximum(np.cos(angles), 1e-3))  # end wall at x = 8
         r = np.minimum(r, 81.91)
         ranges = " ".join(f"{v:.3f}" for v in r)
         t = 1000.0 + 0.2 * k
