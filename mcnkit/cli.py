@@ -114,11 +114,12 @@ def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
         from mcnkit.completion.registry import CheckpointError  # after parsing: --help needs none of these
         from mcnkit.io.errors import LogError
         from mcnkit.outputs import OutputError
+        from mcnkit.slam.limits import MapLimitError
 
         name = " ".join(str(w) for w in (args.command, *(getattr(args, k, None) for k in _SUBCOMMAND_KEYS)) if w)
         try:
             code = int(args.func(args))
-        except (LogError, CheckpointError, OutputError) as err:
+        except (LogError, CheckpointError, OutputError, MapLimitError) as err:
             code = fail(name, err)
         except (FileNotFoundError, IsADirectoryError, PermissionError, FileExistsError) as err:
             code = fail(name, f"{err.filename}: {err.strerror}")
