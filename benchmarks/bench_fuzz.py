@@ -249,7 +249,7 @@ def _run(args: argparse.Namespace, root: Path) -> dict[str, Any]:
             content = LogContent(list(log.frames()), ground_truth=log.ground_truth())
     clean = {"carmen": src}
     for fmt in ("ros1", "mcap", "ros2-sqlite3"):
-        clean[fmt] = write_log(root / "clean" / FORMATS[fmt], content, fmt)
+        clean[fmt] = write_log(root / "clean" / FORMATS[fmt], content, fmt, mcap_chunk_bytes=args.mcap_chunk_kib << 10)
     reference = {}
     for fmt, path in clean.items():
         code, info, _ = run_info(path)
@@ -358,6 +358,8 @@ def main() -> int:
     p.add_argument("--seed", type=int, default=0, help="random seed of the mutations (default 0)")
     p.add_argument("--mutants", type=int, default=200, help="mutants per format (default 200)")
     p.add_argument("--scans", type=int, default=300, help="scans in the source logs (default 300)")
+    p.add_argument("--mcap-chunk-kib", type=int, default=32,
+                   help="chunk size of the source MCAP, KiB (default 32: several chunks, so a flip loses one chunk, not the log)")
     p.add_argument("--slam-scans", type=int, default=40, help="frames the short SLAM run takes (default 40)")
     p.add_argument("--workers", type=int, default=2, help="mutants examined at once (default 2)")
     p.add_argument("--timeout", type=float, default=120.0, help="seconds before a mutant counts as a hang (default 120)")

@@ -162,11 +162,11 @@ def _write_ros2(path: Path, content: LogContent, ts: Typestore, storage: Storage
             writer.write(conns[topic], stamp, ts.serialize_cdr(msg, _TYPES[kind]))
 
 
-def _write_mcap(path: Path, content: LogContent, ts: Typestore, ros1: bool) -> None:
+def _write_mcap(path: Path, content: LogContent, ts: Typestore, ros1: bool, chunk_bytes: int) -> None:
     b = _Msgs(ts, ros1=ros1)
     serialize: Callable[[Any, str], Any] = ts.serialize_ros1 if ros1 else ts.serialize_cdr
     with open(path, "wb") as f:
-        w = McapWriter(f, compression=CompressionType.ZSTD)
+        w = McapWriter(f, chunk_size=chunk_bytes, compression=CompressionType.ZSTD)
         w.start(profile="ros1" if ros1 else "ros2", library="mcnkit")
         channels = {}
         for topic, kind in _topics(content).items():
@@ -180,8 +180,12 @@ def _write_mcap(path: Path, content: LogContent, ts: Typestore, ros1: bool) -> N
         w.finish()
 
 
-def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, overwrite: bool = False) -> Path:
+def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, overwrite: bool = False,
+              mcap_chunk_bytes: int = 1 << 20) -> Path:
     """Writes ``content`` to ``path`` in ``fmt`` (one of :data:`FORMATS` or ``mcap-ros1``; default by suffix).
+
+    ``mcap_chunk_bytes``: the (uncompressed) chunk size of a plain MCAP file (1 MiB, like ``ros2 bag record``);
+    each chunk carries its own CRC, so a damaged file loses only the chunks that were hit.
 
     Raises:
         LogError: unknown format, nothing to write, or ``path`` exists and ``overwrite`` is False.
@@ -207,7 +211,7 @@ def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, 
             _rename_bag_files(partial, path.name)
         else:
             _write_mcap(partial, content, decoder.typestore("ros1" if fmt == "mcap-ros1" else "cdr"),
-                        ros1=fmt == "mcap-ros1")
+                        ros1=fmt == "mcap-ros1", chunk_bytes=mcap_chunk_bytes)
     except BaseException:
         shutil.rmtree(partial, ignore_errors=True) if partial.is_dir() else partial.unlink(missing_ok=True)
         raise
