@@ -24,12 +24,13 @@ def _runner(run: str, config_from_args: Callable[[argparse.Namespace], Any]) -> 
     def command(args: argparse.Namespace) -> int:
         from mcnkit.completion.registry import CheckpointError
         from mcnkit.exits import fail
+        from mcnkit.experiments.houses import RunCacheError
 
         module, name = run.split(":")
         try:
             config = config_from_args(args)
             print(getattr(importlib.import_module(module), name)(config))
-        except (CheckpointError, ValueError) as err:
+        except (CheckpointError, RunCacheError, ValueError) as err:
             return fail(f"experiment {args.experiment}", err)
         return 0
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcnkit.experiments.houses import CACHE_VERSION, HouseRun, RunCacheError, cache_key, cache_path
+from mcnkit.experiments.houses import CACHE_VERSION, HouseRun, RunCacheError, cache_key, cache_path, run_house
 from mcnkit.experiments.options import Exp2Config
 from mcnkit.types import GridSpec
 
@@ -68,3 +68,25 @@ def test_a_stale_a_foreign_and_a_damaged_cache_are_refused(tmp_path: Path) -> No
     replace(h, truth=h.truth[:4]).save(tmp_path / "truth.npz", key)
     with pytest.raises(RunCacheError, match=r"damaged .*m_T is float32"):
         HouseRun.load(tmp_path / "truth.npz", key)
+
+
+def test_run_house_reuses_its_cache_and_refuses_a_bad_one(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from mcnkit.cli import main
+
+    cfg = Exp2Config(out_dir=str(tmp_path), maps=("procedural:1",))
+    h = replace(_house(), name="procedural:1")
+    key = cache_key(cfg, h.name)
+    h.save(cache_path(tmp_path, key), key)
+    assert run_house(cfg, h.name, 0, tmp_path).n_scans == h.n_scans  # read back, not simulated
+    with np.load(cache_path(tmp_path, key)) as z:
+        fields = {k: z[k] for k in z.files}
+    np.savez(cache_path(tmp_path, key), **{**fields, "version": np.int64(CACHE_VERSION + 1)})
+    with pytest.raises(RunCacheError, match="stale"):
+        run_house(cfg, h.name, 0, tmp_path)
+    # the command reports it in one line (a house that cannot be simulated would be skipped, this is not)
+    runs = tmp_path / "out" / "runs"
+    runs.mkdir(parents=True)
+    (cache_path(runs, cache_key(Exp2Config(), h.name))).write_text("garbage")  # the key: the run's settings only
+    code = main(["experiment", "exp2", "--out", str(tmp_path / "out"), "--maps", "procedural:1", "--models", "unet",
+                 "--houseexpo", str(tmp_path / "none.tar.gz"), "--quiet"])
+    assert code == 2 and "not a cached house run" in capsys.readouterr().err
