@@ -1,5 +1,6 @@
 """What Experiments 2 and 3 share: a SLAM run that remembers the best particle at every filter update, exact
-maps of that particle at any update, completions of a batch of windows, and per-map scores.
+maps of that particle at any update, completions of a batch of windows, per-map scores and their aggregate (a
+:class:`~mcnkit.completion.scores.Scores`), and the trivial fills (which Experiment 1 uses too).
 
 **The best particle's map at update k** (the paper's ``m_t = argmax_m p(m | x_{0:t}, z_{1:t})``): at every filter
 update :func:`run_slam` stores the ancestry poses of the particle that was best *at that update*
@@ -174,7 +175,8 @@ def per_map_scores(pred: NDArray[np.floating], truth: NDArray[np.floating], part
 
 def aggregate(pred: NDArray[np.floating], truth: NDArray[np.floating], partial: NDArray[np.floating],
               positive: PositiveClass, miou_mask: NDArray[np.bool_] | None = None) -> Scores:
-    """Per-map mean, 95 % CI half-width (F and mIoU) and pooled figures (counts summed over maps and samples)."""
+    """Per-map mean, 95 % CI half-width (F and mIoU) and pooled figures (counts summed over maps and samples), as
+    the :class:`~mcnkit.completion.scores.Scores` of the B maps."""
     per = per_map_scores(pred, truth, partial, positive, miou_mask)
     p = np.asarray(pred)
     if p.ndim == 3:
