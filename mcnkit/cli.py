@@ -15,23 +15,12 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, TextIO
 
 from mcnkit import __version__
+from mcnkit.exits import fail
 
 if TYPE_CHECKING:
     from mcnkit.drive import Signals
 
-__all__ = ["COMMANDS", "EXIT_BAD_INPUT", "build_parser", "fail", "main"]
-
-EXIT_BAD_INPUT = 2
-EXIT_INTERRUPTED = 130
-
-
-def fail(command: str, message: object) -> int:
-    """Reports bad input the way every subcommand does: one line ``mcnkit COMMAND: FILE: problem`` on stderr
-    (the message names the file); returns the exit code (2)."""
-    text = str(message).strip()
-    print(f"mcnkit {command}: {text.splitlines()[0] if text else 'failed'}", file=sys.stderr)
-    return EXIT_BAD_INPUT
-
+__all__ = ["COMMANDS", "build_parser", "main"]
 
 def _show_warning(
     message: Warning | str, category: type[Warning], filename: str, lineno: int,

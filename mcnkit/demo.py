@@ -60,7 +60,7 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
 
     from mcnkit.drive import Interrupted, drive
     from mcnkit.io import open_log
-    from mcnkit.io.cli import describe, print_info
+    from mcnkit.io.info import describe, print_info
     from mcnkit.mcn import McnConfig, McnSlam, load_model
     from mcnkit.metrics import absolute_trajectory_error
     from mcnkit.run import mcn_sinks

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -84,9 +83,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     import numpy as np
     import torch
 
-    from mcnkit.cli import fail
     from mcnkit.completion.checkpoint import CheckpointError
     from mcnkit.drive import SIGNALS, drive
+    from mcnkit.exits import fail
     from mcnkit.io import open_log
     from mcnkit.mcn import McnConfig, McnSlam, load_model
     from mcnkit.outputs import Output, check_outputs
@@ -174,9 +173,3 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_dataclass_flags(p, SlamConfig, "slam")
     p.set_defaults(func=cmd_run)
-
-
-if __name__ == "__main__":
-    from mcnkit.cli import main
-
-    sys.exit(main(["run", *sys.argv[1:]]))

@@ -24,7 +24,7 @@ from mcnkit.completion.checkpoint import (
     save_checkpoint,
 )
 from mcnkit.completion.data import load_domain_pairs
-from mcnkit.completion.exp1 import default_weights_dir
+from mcnkit.completion.registry import default_weights_dir
 from mcnkit.completion.sample import complete, sample_completions
 from mcnkit.completion.scores import Scores, score_maps
 from mcnkit.datasets import PairSet

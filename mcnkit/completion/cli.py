@@ -1,4 +1,4 @@
-"""``mcnkit train`` and ``mcnkit experiment exp1``: argparse subparsers for the lead's ``mcnkit/cli.py``.
+"""``mcnkit train``: the argparse subparser for the lead's ``mcnkit/cli.py``.
 
 Each command is a function ``(argparse.Namespace) -> exit code``; bad input ends with one line on stderr and
 exit code 2.  ``python -m mcnkit.completion.cli train ...`` runs the same commands without the main CLI.
@@ -10,10 +10,10 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from mcnkit.cli import fail
 from mcnkit.completion.registry import DOMAINS
+from mcnkit.exits import fail
 
-__all__ = ["add_exp1_arguments", "add_train_parser", "cmd_experiment", "cmd_train", "main"]
+__all__ = ["add_train_parser", "cmd_train", "main"]
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -113,45 +113,6 @@ def add_train_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--cache", default=None, help="pair cache directory (default: <data>/cache/houseexpo-N)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)
-
-
-def cmd_experiment(args: argparse.Namespace) -> int:
-    """``mcnkit experiment exp1 --out DIR``."""
-    from mcnkit.completion.checkpoint import CheckpointError
-    from mcnkit.completion.exp1 import Exp1Config, run_exp1
-
-    try:
-        cfg = Exp1Config(
-            out_dir=args.out,
-            weights_dir=args.weights,
-            n_test=args.n_test,
-            n_train=args.n_train,
-            n_samples=args.samples,
-            seed=args.seed,
-            houseexpo=args.houseexpo,
-            cache_dir=args.cache,
-            threads=args.threads,
-        )
-        table = run_exp1(cfg)
-    except (CheckpointError, ValueError) as err:
-        return fail("experiment exp1", err)
-    except (FileNotFoundError, PermissionError) as err:
-        return fail("experiment exp1", f"{err.filename}: {err.strerror}")
-    print(table)
-    return 0
-
-
-def add_exp1_arguments(p: argparse.ArgumentParser) -> None:
-    """Adds Experiment 1's options (``mcnkit experiment exp1``, wired in :mod:`mcnkit.experiments.cli`)."""
-    p.add_argument("--out", required=True, help="output directory (exp1.csv, exp1.md, PNG figures)")
-    p.add_argument("--weights", default=None, help="directory with the checkpoints (default: shipped weights)")
-    p.add_argument("--n-test", type=int, default=100, help="HouseExpo test maps (paper: 100; up to 1000)")
-    p.add_argument("--n-train", type=int, default=16000, help="HouseExpo pair split to read (cache key)")
-    p.add_argument("--samples", type=int, default=4, help="samples per example in the figure")
-    p.add_argument("--seed", type=int, default=0, help="seed of the test-map draw and of the samples (default 0)")
-    p.add_argument("--houseexpo", default=None, help="HouseExpo json.tar.gz (default: installed, then ../shared/data)")
-    p.add_argument("--cache", default=None, help="pair cache directory (default: <data>/cache/houseexpo-N)")
-    p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

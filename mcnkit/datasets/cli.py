@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mcnkit.cli import fail
 from mcnkit.datasets.houseexpo import HOUSEEXPO_SHA256, default_data_dir, find_houseexpo, install_houseexpo
+from mcnkit.exits import fail
 
 if TYPE_CHECKING:
     from mcnkit.datasets.pairs import PairSet

@@ -1,6 +1,6 @@
 """``mcnkit experiment exp1|exp2|exp3``: the paper's experiments, each with its own options.
 
-* ``exp1``: map completion from one scan on HouseExpo test maps (:mod:`mcnkit.completion.exp1`);
+* ``exp1``: map completion from one scan on HouseExpo test maps (:mod:`.exp1`);
 * ``exp2``: MCN-SLAM on simulated HouseExpo houses, at the first filter update and at T−5 (:mod:`.exp2`);
 * ``exp3``: the real labs, MIT CSAIL and the Intel lab, along the run (:mod:`.exp3`).
 
@@ -22,14 +22,15 @@ def _runner(run: str, config_from_args: Callable[[argparse.Namespace], Any]) -> 
     only then), print its Markdown report."""
 
     def command(args: argparse.Namespace) -> int:
-        from mcnkit.cli import fail
         from mcnkit.completion.registry import CheckpointError
+        from mcnkit.exits import fail
+        from mcnkit.experiments.houses import RunCacheError
 
         module, name = run.split(":")
         try:
             config = config_from_args(args)
             print(getattr(importlib.import_module(module), name)(config))
-        except (CheckpointError, ValueError) as err:
+        except (CheckpointError, RunCacheError, ValueError) as err:
             return fail(f"experiment {args.experiment}", err)
         return 0
 
@@ -47,10 +48,11 @@ Each writes a CSV, a Markdown report (also printed) and PNG figures into --out."
 
 def add_experiment_parser(subparsers: Any) -> None:
     """Adds ``experiment`` with one sub-command per experiment."""
-    from mcnkit.completion.cli import add_exp1_arguments, cmd_experiment
     from mcnkit.experiments.options import (
+        add_exp1_arguments,
         add_exp2_arguments,
         add_exp3_arguments,
+        exp1_config_from_args,
         exp2_config_from_args,
         exp3_config_from_args,
     )
@@ -60,7 +62,7 @@ def add_experiment_parser(subparsers: Any) -> None:
     sub = p.add_subparsers(dest="experiment", metavar="NAME", required=True)
     e1 = sub.add_parser("exp1", help="map completion from one scan, HouseExpo test maps (paper Exp 1)")
     add_exp1_arguments(e1)
-    e1.set_defaults(func=cmd_experiment)
+    e1.set_defaults(func=_runner("mcnkit.experiments.exp1:run_exp1", exp1_config_from_args))
     e2 = sub.add_parser("exp2", help="MCN-SLAM on simulated HouseExpo houses: iteration 1 and T-5 (paper Exp 2)")
     add_exp2_arguments(e2)
     e2.set_defaults(func=_runner("mcnkit.experiments.exp2:run_exp2", exp2_config_from_args))

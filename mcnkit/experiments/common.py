@@ -1,5 +1,6 @@
 """What Experiments 2 and 3 share: a SLAM run that remembers the best particle at every filter update, exact
-maps of that particle at any update, completions of a batch of windows, and per-map scores.
+maps of that particle at any update, completions of a batch of windows, per-map scores and their aggregate (a
+:class:`~mcnkit.completion.scores.Scores`), and the trivial fills (which Experiment 1 uses too).
 
 **The best particle's map at update k** (the paper's ``m_t = argmax_m p(m | x_{0:t}, z_{1:t})``): at every filter
 update :func:`run_slam` stores the ancestry poses of the particle that was best *at that update*
@@ -10,13 +11,10 @@ update :func:`run_slam` stores the ancestry poses of the particle that was best 
 
 from __future__ import annotations
 
-import csv
-import math
 import warnings
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
@@ -24,7 +22,7 @@ from numpy.typing import NDArray
 
 from mcnkit.completion.nets import UNet
 from mcnkit.completion.sample import complete, label_entropy, sample_completions
-from mcnkit.completion.scores import mean_ci95, score_maps
+from mcnkit.completion.scores import PositiveClass, Scores, mean_ci95, score_maps
 from mcnkit.drive import DriveStep, Outcome, drive
 from mcnkit.slam import FastSlam, SlamConfig
 from mcnkit.slam.lineage import LineageMap
@@ -41,9 +39,7 @@ __all__ = [
     "model_label",
     "new_lineage",
     "per_map_scores",
-    "read_csv",
     "run_slam",
-    "write_csv",
 ]
 
 F32 = NDArray[np.float32]
@@ -151,7 +147,7 @@ def complete_windows(net: UNet, partial: F32, k: int, generator: torch.Generator
 
 
 def per_map_scores(pred: NDArray[np.floating], truth: NDArray[np.floating], partial: NDArray[np.floating],
-                   positive: str = "free", miou_mask: NDArray[np.bool_] | None = None) -> dict[str, F64]:
+                   positive: PositiveClass = "free", miou_mask: NDArray[np.bool_] | None = None) -> dict[str, F64]:
     """Per-map scores (B,) of predictions (B, S, S) or sample stacks (B, K, S, S: each map's mean over its K
     samples) against m_T (B, S, S); free or occupied positive, as :func:`~mcnkit.completion.scores.score_maps`.
 
@@ -168,7 +164,7 @@ def per_map_scores(pred: NDArray[np.floating], truth: NDArray[np.floating], part
     flat = pred.reshape(b * k, *pred.shape[2:])
     out: dict[str, list[float]] = {m: [] for m in METRICS}
     for i in range(b * k):
-        s = score_maps(flat[i : i + 1], tr[i : i + 1], pa[i : i + 1], positive)  # type: ignore[arg-type]
+        s = score_maps(flat[i : i + 1], tr[i : i + 1], pa[i : i + 1], positive)
         for m in METRICS:
             out[m].append(getattr(s, m))
     with warnings.catch_warnings():  # a map whose mIoU cells are empty in every sample stays NaN
@@ -178,8 +174,9 @@ def per_map_scores(pred: NDArray[np.floating], truth: NDArray[np.floating], part
 
 
 def aggregate(pred: NDArray[np.floating], truth: NDArray[np.floating], partial: NDArray[np.floating],
-              positive: str, miou_mask: NDArray[np.bool_] | None = None) -> dict[str, Any]:
-    """Per-map mean, 95 % CI half-width (F and mIoU) and pooled figures (counts summed over maps and samples)."""
+              positive: PositiveClass, miou_mask: NDArray[np.bool_] | None = None) -> Scores:
+    """Per-map mean, 95 % CI half-width (F and mIoU) and pooled figures (counts summed over maps and samples), as
+    the :class:`~mcnkit.completion.scores.Scores` of the B maps."""
     per = per_map_scores(pred, truth, partial, positive, miou_mask)
     p = np.asarray(pred)
     if p.ndim == 3:
@@ -189,32 +186,8 @@ def aggregate(pred: NDArray[np.floating], truth: NDArray[np.floating], partial: 
     tr = np.broadcast_to(np.asarray(truth)[:, None], p.shape).reshape(flat.shape)
     mask = (np.asarray(partial) == UNKNOWN) if miou_mask is None else np.asarray(miou_mask, bool)
     pa = np.broadcast_to(np.where(mask, UNKNOWN, FREE).astype(np.float32)[:, None], p.shape).reshape(flat.shape)
-    pooled = score_maps(flat, tr, pa, positive)  # type: ignore[arg-type]
-    row: dict[str, Any] = {"n_maps": b, "positive_class": positive}
-    for m in METRICS:
-        mean, ci = mean_ci95(per[m])
-        row[m] = mean
-        if m in ("f_measure", "miou_unknown"):
-            row["f_ci95" if m == "f_measure" else "miou_ci95"] = ci
-    row.update({"pooled_accuracy": pooled.pooled_accuracy, "pooled_precision": pooled.pooled_precision,
-                "pooled_recall": pooled.pooled_recall, "pooled_f_measure": pooled.pooled_f_measure,
-                "pooled_miou_unknown": pooled.pooled_miou_unknown})
-    return row
-
-
-def write_csv(path: Path, rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> None:
-    """Rows to CSV (floats with 6 decimals; missing columns empty)."""
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(columns), extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (f"{v:.6f}" if isinstance(v, float) and math.isfinite(v) else
-                            ("nan" if isinstance(v, float) else v)) for k, v in r.items()})
-
-
-def read_csv(path: str | Path, text_columns: Iterable[str]) -> list[dict[str, Any]]:
-    """Reads a CSV written by :func:`write_csv`: the ``text_columns`` as strings, the rest as floats."""
-    text = set(text_columns)
-    with open(path, newline="") as fh:
-        return [{k: v if k in text else float(v) for k, v in r.items()} for r in csv.DictReader(fh)]
-
+    pooled = score_maps(flat, tr, pa, positive)
+    means = {m: mean_ci95(per[m]) for m in METRICS}
+    return replace(pooled, n_maps=b, accuracy=means["accuracy"][0], precision=means["precision"][0],
+                   recall=means["recall"][0], f_measure=means["f_measure"][0], f_ci95=means["f_measure"][1],
+                   miou_unknown=means["miou_unknown"][0], miou_ci95=means["miou_unknown"][1])

@@ -22,7 +22,8 @@ Protocol (also in ``exp3.md``):
    known to be wall).
 
 Outputs in ``out_dir``: ``exp3.csv`` (one row per log × point × method × variant), ``exp3.md``,
-``exp3_<log>.png`` (the windows at each point) and ``exp3_<log>_overview.png`` (the final map and the windows).
+``exp3_<log>.png`` (the windows at each point) and ``exp3_<log>_overview.png`` (the final map and the windows);
+the rows are :mod:`.rows`, the report and figures ``exp3_report``.
 """
 
 from __future__ import annotations
@@ -31,17 +32,16 @@ import os
 import tempfile
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 from itertools import islice
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
 
+from mcnkit.completion.nets import UNet
+from mcnkit.completion.scores import mean_ci95
 from mcnkit.experiments.common import (
-    MapCompletions,
     complete_windows,
     fill_unknown,
     map_at,
@@ -49,22 +49,19 @@ from mcnkit.experiments.common import (
     new_lineage,
     per_map_scores,
     run_slam,
-    write_csv,
 )
+from mcnkit.experiments.exp3_report import PointWindows, markdown, overview_figure, windows_figure
 from mcnkit.experiments.options import Exp3Config, add_exp3_arguments, exp3_config_from_args
+from mcnkit.experiments.rows import FILLS, NO_VARIANT, SLAM_ALONE, Exp3Row, Exp3Summary, LogInfo, mean_variant
+from mcnkit.experiments.tables import write_rows
 from mcnkit.grid import pool_to_window
 from mcnkit.locations import shared_data_dir
 from mcnkit.threads import torch_threads
-from mcnkit.types import FREE, OCCUPIED, UNKNOWN, Frame, GridSpec, TernaryMap
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN, Frame
 
-__all__ = ["CSV_COLUMNS", "Exp3Config", "add_exp3_arguments", "default_logs", "exp3_config_from_args",
-           "run_exp3"]
+__all__ = ["Exp3Config", "add_exp3_arguments", "default_logs", "exp3_config_from_args", "run_exp3"]
 
 F32 = NDArray[np.float32]
-
-CSV_COLUMNS = ["log", "point", "update", "n_updates", "method", "variant", "accuracy", "precision", "recall",
-               "f_measure", "f_known", "miou_unknown", "unknown_share", "truth_unknown_share"]
-SUMMARY_METRICS = ("f_measure", "f_known", "miou_unknown")
 
 
 def _reallab_dir() -> Path:
@@ -75,17 +72,6 @@ def default_logs(reallab: str | os.PathLike[str] | None = None) -> tuple[str, ..
     """The MIT CSAIL and Intel Research Lab logs (``$MCNKIT_SHARED_DATA/reallab`` or ``../shared/data/reallab``)."""
     root = Path(reallab) if reallab else _reallab_dir()
     return (str(root / "mit-csail" / "mit-csail.clf"), str(root / "intel" / "intel-corrected.log.gz"))
-
-
-@dataclass
-class PointWindows:
-    """One log at one point: the window, m_t and m_T on it."""
-
-    point: float
-    update: int
-    window: GridSpec
-    partial: F32
-    truth: F32
 
 
 def _log_name(path: str) -> str:
@@ -112,79 +98,21 @@ def _frames(cfg: Exp3Config, path: str, tmp: Path) -> Iterator[Frame]:
         yield from log.frames()
 
 
-def _scores(pred: F32, truth: F32, partial: F32) -> dict[str, float]:
-    """F (whole window), F on the cells m_T knows, mIoU on cells unknown in m_t and known in m_T; one window
-    (S, S) or a stack of samples (K, S, S)."""
+def _row(log: str, pw: PointWindows, n_updates: int, method: str, variant: str, pred: F32) -> Exp3Row:
+    """The row of one prediction at one point: F (whole window), F on the cells m_T knows, mIoU on cells unknown
+    in m_t and known in m_T; ``pred`` one window (S, S) or a stack of samples (K, S, S)."""
     p = pred if pred.ndim == 3 else pred[None]
-    t, m = truth[None], partial[None]
-    known = truth != UNKNOWN
-    whole = per_map_scores(p[None], t, m, "free", miou_mask=((m == UNKNOWN) & known[None]))
-    masked = np.where(known, p, UNKNOWN)
-    f_known = per_map_scores(masked[None], t, m, "free")["f_measure"]
-    return {**{k: float(v[0]) for k, v in whole.items()}, "f_known": float(f_known[0])}
+    t, m = pw.truth[None], pw.partial[None]
+    known = pw.truth != UNKNOWN
+    whole = {k: float(v[0]) for k, v in per_map_scores(p[None], t, m, "free", miou_mask=(m == UNKNOWN) & known[None]).items()}
+    f_known = float(per_map_scores(np.where(known, p, UNKNOWN)[None], t, m, "free")["f_measure"][0])
+    return Exp3Row(log, pw.point, pw.update + 1, n_updates, method, variant, whole["accuracy"], whole["precision"],
+                   whole["recall"], whole["f_measure"], f_known, whole["miou_unknown"],
+                   float((pw.partial == UNKNOWN).mean()), float((pw.truth == UNKNOWN).mean()))
 
 
-def _figure(path: Path, name: str, pts: list[PointWindows], comps: dict[str, MapCompletions], n_updates: int) -> None:
-    from matplotlib.figure import Figure
-
-    labels = list(comps)
-    unet = next((lab for lab in labels if "U-net" in lab), labels[0] if labels else None)
-    cols = ["m_t"]
-    if unet:
-        cols += [f"{unet} s1", f"{unet} s2", f"{unet} mean", "uncertainty"]
-    cols += [f"{lab} mean" for lab in labels if lab != unet] + ["m_T"]
-    fig = Figure(figsize=(1.6 * len(cols), 1.75 * len(pts)))
-    axes = fig.subplots(len(pts), len(cols), squeeze=False)
-    for r, pw in enumerate(pts):
-        panels: list[tuple[NDArray[np.floating], str]] = [(pw.partial, "gray_r")]
-        if unet:
-            c = comps[unet]
-            ks = c.samples.shape[1]
-            panels += [(c.samples[r, min(j, ks - 1)], "gray_r") for j in range(2)]
-            panels += [(c.mean[r], "gray_r"), (c.uncertainty[r], "magma")]
-        panels += [(comps[lab].mean[r], "gray_r") for lab in labels if lab != unet]
-        panels.append((pw.truth, "gray_r"))
-        for c_idx, (img, cmap) in enumerate(panels):
-            ax = axes[r, c_idx]
-            ax.imshow(img, cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest", origin="lower")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            if r == 0:
-                ax.set_title(cols[c_idx], fontsize=7)
-        axes[r, 0].set_ylabel(f"{pw.point:.0%}\nupdate {pw.update + 1}/{n_updates}", fontsize=7)
-    fig.suptitle(name, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-
-
-def _overview(path: Path, name: str, final: TernaryMap, pts: list[PointWindows], trajectory: NDArray[np.float64]
-              ) -> None:
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Rectangle
-
-    s = final.spec
-    assert s is not None
-    extent = (s.origin_x_m, s.origin_x_m + s.width * s.resolution_m, s.origin_y_m,
-              s.origin_y_m + s.height * s.resolution_m)
-    fig = Figure(figsize=(7, 7))
-    ax = fig.subplots()
-    ax.imshow(final.image, cmap="gray_r", vmin=0, vmax=1, origin="lower", extent=extent, interpolation="nearest")
-    ax.plot(trajectory[:, 0], trajectory[:, 1], color="C2", lw=0.8, label="best particle (updates)")
-    for pw in pts:
-        w = pw.window
-        ax.add_patch(Rectangle((w.origin_x_m, w.origin_y_m), w.width * w.resolution_m, w.height * w.resolution_m,
-                               fill=False, color="C3", lw=1.2))
-        ax.text(w.origin_x_m, w.origin_y_m + w.height * w.resolution_m, f"{pw.point:.0%}", color="C3", fontsize=8)
-    ax.set_title(f"{name}: final map (m_T) and the completion windows")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.legend(fontsize=8, loc="lower right")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-
-
-def _run_log(cfg: Exp3Config, path: str, nets: dict[str, Any], out: Path, index: int
-             ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+def _run_log(cfg: Exp3Config, path: str, nets: dict[str, UNet], out: Path, index: int
+             ) -> tuple[list[Exp3Row], LogInfo]:
     from mcnkit.mcn import robot_window
     from mcnkit.slam import SlamConfig
 
@@ -206,92 +134,36 @@ def _run_log(cfg: Exp3Config, path: str, nets: dict[str, Any], out: Path, index:
     partial = np.stack([pw.partial for pw in pts])
     comps = {lab: complete_windows(net, partial, cfg.samples, torch.Generator().manual_seed(cfg.seed * 1000 + j))
              for j, (lab, net) in enumerate(nets.items())}
-    rows: list[dict[str, Any]] = []
+    rows: list[Exp3Row] = []
     for i, pw in enumerate(pts):
-        preds: dict[tuple[str, str], F32] = {("(C) SLAM alone", "-"): pw.partial}
+        preds: dict[tuple[str, str], F32] = {(SLAM_ALONE, NO_VARIANT): pw.partial}
         for lab, c in comps.items():
-            preds[(lab, f"mean of {cfg.samples}")] = c.mean[i]
+            preds[(lab, mean_variant(cfg.samples))] = c.mean[i]
             preds[(lab, "per sample")] = c.samples[i]
             preds[(lab, "dropout off")] = c.deterministic[i]
-        preds[("unknown → all free", "-")] = fill_unknown(pw.partial, FREE)
-        preds[("unknown → all occupied", "-")] = fill_unknown(pw.partial, OCCUPIED)
-        for (method, variant), pred in preds.items():
-            rows.append({"log": name, "point": pw.point, "update": pw.update + 1, "n_updates": run.n_updates,
-                         "method": method, "variant": variant, **_scores(pred, pw.truth, pw.partial),
-                         "unknown_share": float((pw.partial == UNKNOWN).mean()),
-                         "truth_unknown_share": float((pw.truth == UNKNOWN).mean())})
+        preds[(FILLS[0], NO_VARIANT)] = fill_unknown(pw.partial, FREE)
+        preds[(FILLS[1], NO_VARIANT)] = fill_unknown(pw.partial, OCCUPIED)
+        rows += [_row(name, pw, run.n_updates, method, variant, pred) for (method, variant), pred in preds.items()]
     if nets:
-        _figure(out / f"exp3_{name}.png", name, pts, comps, run.n_updates)
-    best = run.best_poses[-1]
-    _overview(out / f"exp3_{name}_overview.png", name, final, pts, best)
-    info = {"log": name, "path": path, "scans": run.n_scans, "updates": run.n_updates, "slam_cpu_s": run.cpu_s,
-            "read_and_slam_s": t_slam, "total_s": time.perf_counter() - t0}
+        windows_figure(out / f"exp3_{name}.png", name, pts, comps, run.n_updates)
+    overview_figure(out / f"exp3_{name}_overview.png", name, final, pts, run.best_poses[-1])
+    info = LogInfo(name, path, run.n_scans, run.n_updates, run.cpu_s, t_slam, time.perf_counter() - t0)
     return rows, info
 
 
-def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _summary(rows: list[Exp3Row]) -> list[Exp3Summary]:
     """Per log (and over all logs) and method/variant: the mean of each metric over the points, with 95 % CIs."""
-    from mcnkit.completion.scores import mean_ci95
-
     out = []
-    logs = list(dict.fromkeys(r["log"] for r in rows))
+    logs = list(dict.fromkeys(r.log for r in rows))
     for log in [*logs, "all"]:
-        rs = [r for r in rows if log in ("all", r["log"])]
-        for key in dict.fromkeys((r["method"], r["variant"]) for r in rs):
-            sel = [r for r in rs if (r["method"], r["variant"]) == key]
-            row: dict[str, Any] = {"log": log, "method": key[0], "variant": key[1], "n": len(sel)}
-            for m in SUMMARY_METRICS:
-                row[m], row[f"{m}_ci95"] = mean_ci95(np.array([r[m] for r in sel], float))
-            out.append(row)
+        rs = [r for r in rows if log in ("all", r.log)]
+        for method, variant in dict.fromkeys((r.method, r.variant) for r in rs):
+            sel = [r for r in rs if (r.method, r.variant) == (method, variant)]
+            f, f_ci = mean_ci95(np.array([r.f_measure for r in sel], float))
+            fk, fk_ci = mean_ci95(np.array([r.f_known for r in sel], float))
+            mi, mi_ci = mean_ci95(np.array([r.miou_unknown for r in sel], float))
+            out.append(Exp3Summary(log, method, variant, len(sel), f, f_ci, fk, fk_ci, mi, mi_ci))
     return out
-
-
-def _markdown(cfg: Exp3Config, rows: list[dict[str, Any]], infos: list[dict[str, Any]], total_s: float) -> str:
-    k = cfg.samples
-    lines = [f"# Experiment 3: map completion on real-robot logs ({', '.join(i['log'] for i in infos)})", ""]
-    summary = _summary(rows)
-    lines += [f"## Summary: mean over the {len(cfg.points)} points (± 95 % CI), free space positive", "",
-              "| log | method | variant | F (whole window) | F (cells m_T knows) | mIoU unknown |", "|---|---|---|---|---|---|"]
-    for s in summary:
-        lines.append(f"| {s['log']} | {s['method']} | {s['variant']} | {s['f_measure']:.4f} ± {s['f_measure_ci95']:.4f} | "
-                     f"{s['f_known']:.4f} ± {s['f_known_ci95']:.4f} | {s['miou_unknown']:.4f} ± "
-                     f"{s['miou_unknown_ci95']:.4f} |")
-    lines.append("")
-    for info in infos:
-        rs = [r for r in rows if r["log"] == info["log"]]
-        lines += [f"## {info['log']}: {info['scans']} scans, {info['updates']} filter updates", "",
-                  "| point | update | m_t unknown | m_T unknown | method | variant | Prec | Rec | F | F (m_T known) | "
-                  "mIoU unknown |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-        for r in rs:
-            if r["variant"] == "per sample":
-                continue
-            lines.append(f"| {r['point']:.0%} | {r['update']} | {r['unknown_share']:.3f} | {r['truth_unknown_share']:.3f} | "
-                         f"{r['method']} | {r['variant']} | {r['precision']:.4f} | {r['recall']:.4f} | "
-                         f"{r['f_measure']:.4f} | {r['f_known']:.4f} | {r['miou_unknown']:.4f} |")
-        lines += ["", f"Figures: `exp3_{info['log']}.png`, `exp3_{info['log']}_overview.png`.", ""]
-    lines += ["## The paper's real-lab table (one lab room; free space positive; Acc / Prec / Rec / F)", "",
-              "| method | Acc | Prec | Rec | F |", "|---|---|---|---|---|",
-              "| (A) pix2pix | 0.7021 | 0.7582 | 0.2507 | 0.3769 |", "| (B) U-net | 0.7002 | 0.5985 | 0.3119 | 0.4101 |",
-              "| (C) Gmapping | 0.6711 | 0.9817 | 0.1056 | 0.1907 |", "| (D) baseline | 0.6802 | 0.7351 | 0.1945 | 0.3076 |", ""]
-    notes = [
-        ("Logs converted to a ROS1 bag in a temporary directory with mcnkit's writer and read back with open_log."
-         if cfg.convert else "Logs read directly with open_log.")
-        + (f" Only the first {cfg.max_scans} scans of each." if cfg.max_scans else ""),
-        f"SLAM: FastSlam with gmapping's defaults, {cfg.particles} particles, seed {cfg.seed}; m_t at a point = the "
-        "map of the particle best at that filter update (exact, rebuilt from its ancestry); m_T = the final best map.",
-        f"Window: {cfg.window_m:g} m square centred on the robot at the point, {cfg.size}² cells "
-        f"({cfg.window_m / cfg.size:.3f} m a cell); maps pooled with occupied > free > unknown.",
-        f"Networks: {', '.join(cfg.models)} (load_model, trained on HouseExpo); K = {k} samples with dropout on, "
-        f"seeded; 'mean of {k}' = ternary map of the mean output; 'per sample' = mean score of the samples; "
-        "observed cells of m_t kept.",
-        "F (whole window): every window cell, m_T's unknown cells are negatives (the paper's protocol). "
-        "F (cells m_T knows): only cells m_T observed. mIoU over {free, occupied} on cells unknown in m_t and known "
-        "in m_T. The summary's CIs are over the points (windows of one run: not independent).",
-        "Timing: " + "; ".join(f"{i['log']} {i['total_s']:.0f} s ({i['slam_cpu_s']:.0f} s SLAM CPU)" for i in infos)
-        + f"; total {total_s:.0f} s, torch threads {cfg.threads}.",
-    ]
-    lines += ["## Protocol and notes", ""] + [f"- {n}" for n in notes] + [""]
-    return "\n".join(lines)
 
 
 def run_exp3(cfg: Exp3Config) -> str:
@@ -313,13 +185,13 @@ def _run_exp3(cfg: Exp3Config) -> str:
         if not Path(p).exists():
             raise FileNotFoundError(2, "robot log not found", p)
     nets = {model_label(m): load_model(m) for m in cfg.models}
-    rows: list[dict[str, Any]] = []
-    infos: list[dict[str, Any]] = []
+    rows: list[Exp3Row] = []
+    infos: list[LogInfo] = []
     for i, path in enumerate(tqdm(logs, desc="exp3 logs", unit="log", disable=not cfg.progress)):
         r, info = _run_log(cfg, path, nets, out, i)
         rows += r
         infos.append(info)
-    write_csv(out / "exp3.csv", rows, CSV_COLUMNS)
-    md = _markdown(cfg, rows, infos, time.perf_counter() - t0)
+    write_rows(out / "exp3.csv", rows, Exp3Row)
+    md = markdown(cfg, rows, _summary(rows), infos, time.perf_counter() - t0)
     (out / "exp3.md").write_text(md)
     return md

@@ -1,4 +1,4 @@
-"""Settings of Experiments 2 and 3 and their command-line options, apart from the code that runs them (so that
+"""Settings of Experiments 1, 2 and 3 and their command-line options, apart from the code that runs them (so that
 ``mcnkit experiment --help`` loads neither torch nor the SLAM)."""
 
 from __future__ import annotations
@@ -6,8 +6,26 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass, field
 
-__all__ = ["Exp2Config", "Exp3Config", "add_exp2_arguments", "add_exp3_arguments", "exp2_config_from_args",
-           "exp3_config_from_args"]
+__all__ = ["Exp1Config", "Exp2Config", "Exp3Config", "add_exp1_arguments", "add_exp2_arguments",
+           "add_exp3_arguments", "exp1_config_from_args", "exp2_config_from_args", "exp3_config_from_args"]
+
+
+@dataclass(frozen=True)
+class Exp1Config:
+    """Experiment 1 settings: where to write, which weights, how many test maps, the pair splits to read."""
+
+    out_dir: str = "results/exp1"
+    weights_dir: str | None = None
+    n_test: int = 100
+    n_train: int = 16000
+    n_procedural_train: int = 4000
+    n_procedural_test: int = 100
+    n_samples: int = 4
+    n_examples: int = 4
+    seed: int = 0
+    houseexpo: str | None = None
+    cache_dir: str | None = None
+    threads: int = 2
 
 
 @dataclass(frozen=True)
@@ -83,6 +101,29 @@ class Exp3Config:
             raise ValueError(f"points must be fractions in [0, 1], got {self.points}")
         if self.samples < 1 or self.particles < 1 or self.window_m <= 0 or self.threads < 1:
             raise ValueError(f"invalid Exp3Config: {self}")
+
+
+def add_exp1_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Adds Experiment 1's options (``--out`` included) to ``parser``."""
+    d = Exp1Config()
+    p = parser
+    p.add_argument("--out", required=True, help="output directory (exp1.csv, exp1.md, PNG figures)")
+    p.add_argument("--weights", default=None, help="directory with the checkpoints (default: shipped weights)")
+    p.add_argument("--n-test", type=int, default=d.n_test, help="HouseExpo test maps (paper: 100; up to 1000)")
+    p.add_argument("--n-train", type=int, default=d.n_train, help="HouseExpo pair split to read (cache key)")
+    p.add_argument("--samples", type=int, default=d.n_samples, help="samples per example in the figure")
+    p.add_argument("--seed", type=int, default=d.seed, help="seed of the test-map draw and of the samples (default 0)")
+    p.add_argument("--houseexpo", default=None, help="HouseExpo json.tar.gz (default: installed, then ../shared/data)")
+    p.add_argument("--cache", default=None, help="pair cache directory (default: <data>/cache/houseexpo-N)")
+    p.add_argument("--threads", type=int, default=d.threads, help="torch CPU threads (default 2)")
+    return parser
+
+
+def exp1_config_from_args(args: argparse.Namespace) -> Exp1Config:
+    """The :class:`Exp1Config` of options parsed with :func:`add_exp1_arguments`."""
+    return Exp1Config(out_dir=args.out, weights_dir=args.weights, n_test=args.n_test, n_train=args.n_train,
+                      n_samples=args.samples, seed=args.seed, houseexpo=args.houseexpo, cache_dir=args.cache,
+                      threads=args.threads)
 
 
 def add_exp2_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:

@@ -108,7 +108,7 @@ def _command(args: argparse.Namespace) -> str:
 
 def run_eval_relations(args: argparse.Namespace) -> int:
     """Prints the relations error of a TUM trajectory (exit 2 when too few relations match)."""
-    from mcnkit.cli import fail
+    from mcnkit.exits import fail
     from mcnkit.metrics import EvaluationError, read_relations, read_tum, relations_error
 
     try:
@@ -134,7 +134,7 @@ def run_eval_relations(args: argparse.Namespace) -> int:
 def run_eval_ate(args: argparse.Namespace) -> int:
     """Prints ATE and RPE of a TUM trajectory against a reference TUM trajectory (exit 2 when too few poses
     match, or their stamps cannot be matched)."""
-    from mcnkit.cli import fail
+    from mcnkit.exits import fail
     from mcnkit.metrics import EvaluationError, absolute_trajectory_error, read_tum, relative_pose_error
 
     options = {"match": args.match, "min_matched": args.min_matched, "min_fraction": args.min_fraction}

@@ -29,7 +29,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from mcnkit.io import LogContent, open_log, write_log
-from mcnkit.io.cli import describe
+from mcnkit.io.info import describe
 from mcnkit.sim import SimConfig, plan_raster, simulate
 
 work = Path(tempfile.mkdtemp(prefix="mcnkit-02-"))

@@ -52,7 +52,7 @@ from IPython.display import Markdown, display
 
 from mcnkit.completion import complete, load_generator, sample_completions, score_maps
 from mcnkit.completion.data import load_domain_pairs
-from mcnkit.completion.exp1 import default_weights_dir
+from mcnkit.completion.registry import default_weights_dir
 from mcnkit.completion.train import TrainConfig, train
 from mcnkit.datasets import PairSet, PairSplits, find_houseexpo, pair_stats
 from mcnkit.grid import network_to_ternary, ternary_to_network

@@ -10,7 +10,7 @@ its **first scan**. For each HouseExpo test map, $m_T$ is the floor plan and $m_
 180° scan of 2 m range (64 × 64 cells, notebook 04). Every method produces a completed map, and every cell is
 scored as a binary classification against $m_T$: accuracy, precision, recall and F-measure.
 
-The rows of the table (`mcnkit.completion.exp1`, the same as `mcnkit experiment exp1`):
+The rows of the table (`mcnkit.experiments.exp1`, the same as `mcnkit experiment exp1`):
 
 | row | what it is |
 |---|---|
@@ -47,8 +47,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Image, Markdown, display
 
-from mcnkit.completion.exp1 import PAPER, Exp1Config, run_exp1
 from mcnkit.datasets import find_houseexpo
+from mcnkit.experiments import Exp1Config, paper, run_exp1
 
 HOUSEEXPO = find_houseexpo(DATA) or find_houseexpo(SHARED_DATA)
 if HOUSEEXPO is None:
@@ -89,7 +89,7 @@ Free space is the positive class (the paper's reading, below). Blue: F-measure; 
 that were unknown in $m_t$; whiskers: 95 % CI. Black ticks: the F-measure the paper reports for the
 corresponding row (HouseExpo test; the paper's cross-domain row was trained on HOME'S, ours on procedural
 apartments)."""),
-code("""PAPER_ROWS = {line.split("|")[1].strip(): [float(v) for v in line.split("|")[2:6]] for line in PAPER.splitlines()}
+code("""PAPER_ROWS = {r.method: [r.accuracy, r.precision, r.recall, r.f_measure] for r in paper.EXP1}  # the paper's table
 OURS_TO_PAPER = {("(A) pix2pix", "houseexpo"): "(A) pix2pix", ("(B) U-net", "houseexpo"): "(B) U-net",
                  ("(B) U-net", "procedural"): "(B) U-net trained on HOME'S", ("(C) partial map", "-"): "(C) Pseudo SLAM",
                  ("(D) retrieval", "houseexpo"): "(D) training map with highest precision"}

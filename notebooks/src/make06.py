@@ -53,9 +53,8 @@ import numpy as np
 from IPython.display import Image, Markdown, display
 
 from mcnkit.datasets import find_houseexpo
-from mcnkit.experiments import Exp2Config, run_exp2
-from mcnkit.experiments.common import read_csv
-from mcnkit.experiments.exp2 import PAPER
+from mcnkit.experiments import Exp2Config, paper, run_exp2
+from mcnkit.experiments.tables import read_csv
 
 HOUSEEXPO = find_houseexpo(DATA) or find_houseexpo(SHARED_DATA)
 if HOUSEEXPO is None:
@@ -94,10 +93,7 @@ code("""display(Image(filename=str(out / "exp2_examples.png")))"""),
 md("""## F and mIoU per row, at both iterations
 Blue: F-measure (free space positive); orange: mIoU on the cells unknown in $m_t$; whiskers: 95 % CI over the
 houses. Black ticks: the paper's F for the row (Table 2; it reports no Gmapping row at T−5)."""),
-code("""PAPER_F = {}
-for line in PAPER.splitlines():
-    cells = [c.strip() for c in line.strip("|").split("|")]
-    PAPER_F[(cells[0].split(")")[0] + ")", cells[1].replace("T−5", "T-5"))] = float(cells[5])
+code("""PAPER_F = {(r.method.split(")")[0] + ")", r.iteration): r.f_measure for r in paper.EXP2}  # the paper's Table 2
 
 
 def bar_chart(rows, path):

@@ -48,7 +48,7 @@ import numpy as np
 from IPython.display import Image, Markdown, display
 
 from mcnkit.experiments import Exp3Config, run_exp3
-from mcnkit.experiments.common import read_csv
+from mcnkit.experiments.tables import read_csv
 
 missing = [p for p in LOGS if not p.exists()]
 if missing:

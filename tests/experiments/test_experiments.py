@@ -22,9 +22,9 @@ from mcnkit.experiments import (
     run_exp2,
     run_exp3,
 )
-from mcnkit.experiments import exp2 as exp2_mod
-from mcnkit.experiments import exp3 as exp3_mod
 from mcnkit.experiments.common import aggregate, map_at, per_map_scores, run_slam
+from mcnkit.experiments.rows import EXP2_COLUMNS, Exp2Row, Exp3Row, PerMapRow
+from mcnkit.experiments.tables import columns, read_rows
 from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
 from mcnkit.slam import FastSlam, SlamConfig
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
@@ -61,7 +61,7 @@ def test_scores_of_perfect_and_trivial_predictions() -> None:
     per = per_map_scores(stack, truth, partial)
     assert np.allclose(per["recall"], (1 + 1 / 16) / 2)
     row = aggregate(stack, truth, partial, "free")
-    assert row["n_maps"] == 2 and row["f_ci95"] == pytest.approx(0.0)
+    assert row.n_maps == 2 and row.f_ci95 == pytest.approx(0.0)
 
 
 def test_map_at_is_exact_and_remembers_the_best_particle() -> None:
@@ -90,7 +90,7 @@ def test_exp2_writes_tables(tmp_path: Path, tiny_net: str, shared_data: Path) ->
     md = run_exp2(cfg)
     out = Path(cfg.out_dir)
     cols, rows = _read(out / "exp2.csv")
-    assert cols == exp2_mod.CSV_COLUMNS
+    assert cols == list(EXP2_COLUMNS)
     methods = {(r["method"], r["variant"]) for r in rows}
     assert ("(C) SLAM alone", "-") in methods and ("(D) retrieval", "-") in methods
     assert ("unknown → all free", "-") in methods and ("unknown → all occupied", "-") in methods
@@ -113,6 +113,11 @@ def test_exp2_writes_tables(tmp_path: Path, tiny_net: str, shared_data: Path) ->
     assert float(end[0]["f_measure"]) == pytest.approx(1.0)  # m_t at the last update is m_T
     assert (out / "exp2_examples.png").is_file() and (out / "exp2_curve.png").is_file()
     assert "Where the unknown cells are" in md and "(C) SLAM alone" in md
+    typed = read_rows(out / "exp2.csv", Exp2Row)  # the CSV reads back into the rows
+    assert [(r.iteration, r.method, r.variant, r.scores.positive_class) for r in typed] == [
+        (r["iteration"], r["method"], r["variant"], r["positive_class"]) for r in rows]
+    assert [r.scores.f_measure for r in typed] == [float(r["f_measure"]) for r in rows]
+    assert len(read_rows(out / "exp2_per_map.csv", PerMapRow)) == len(per_map)
     # deterministic: again from scratch (no cached runs) gives the same table
     run_exp2(Exp2Config(**{**cfg.__dict__, "out_dir": str(tmp_path / "b"), "reuse_runs": False, "curve": False,
                            "n_examples": 0}))
@@ -126,7 +131,7 @@ def test_exp3_on_a_short_simulated_log(tmp_path: Path, tiny_net: str) -> None:
                      samples=2, models=(tiny_net,), particles=3, progress=False)
     md = run_exp3(cfg)
     cols, rows = _read(tmp_path / "out" / "exp3.csv")
-    assert cols == exp3_mod.CSV_COLUMNS
+    assert cols == columns(Exp3Row)
     assert len(rows) == 3 * (1 + 3 + 2) and {r["log"] for r in rows} == {"short"}
     slam = {float(r["point"]): r for r in rows if r["method"] == "(C) SLAM alone"}
     assert float(slam[1.0]["f_measure"]) == pytest.approx(1.0)  # at the end, m_t is m_T

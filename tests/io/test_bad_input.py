@@ -225,7 +225,7 @@ def test_a_carmen_log_with_a_1e38_range_reads_and_maps(tmp_path: Path) -> None:
 def test_a_sqlite_row_with_a_non_integer_timestamp_is_skipped(tmp_path: Path, frames: list[Frame]) -> None:
     import sqlite3
 
-    from mcnkit.io.cli import describe
+    from mcnkit.io.info import describe
 
     path = write_log(tmp_path / "bag2", LogContent(frames), "ros2-sqlite3")
     db = sqlite3.connect(path / "bag2.db3")

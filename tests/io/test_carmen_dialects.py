@@ -16,7 +16,7 @@ import pytest
 
 from mcnkit.io import LogWarning, open_log
 from mcnkit.io.carmen import repair_stamps
-from mcnkit.io.cli import describe
+from mcnkit.io.info import describe
 from mcnkit.slam import FastSlam, SlamConfig
 
 N_SCANS = 12

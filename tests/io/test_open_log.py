@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mcnkit.io import CarmenLog, LogError, LogWarning, open_log
-from mcnkit.io.cli import describe
+from mcnkit.io.info import describe
 
 FIXTURES = [
     "rosbag_js/example.bag", "rosbag_js/example-bz2.bag", "rosbag_js/example-lz4.bag",

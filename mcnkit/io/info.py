@@ -1,0 +1,70 @@
+"""What a robot log holds, as ``mcnkit info`` shows it: :func:`describe` (a JSON-ready dict) and
+:func:`print_info` (the text)."""
+
+from __future__ import annotations
+
+import math
+from datetime import UTC, datetime
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mcnkit.io.base import LogReader
+
+__all__ = ["describe", "print_info"]
+
+
+def describe(log: LogReader) -> dict[str, object]:
+    """Everything ``mcnkit info`` prints, as a JSON-ready dict."""
+    start, end = log.time_range_ns()
+    info: dict[str, object] = {
+        "path": str(log.path),
+        "format": log.format,
+        "start_ns": start,
+        "end_ns": end,
+        "duration_s": round((end - start) / 1e9, 3),
+        "topics": [{"name": t.name, "type": t.msgtype, "count": t.count} for t in log.topics],
+        "scan_topic": log.scan_topic or None,
+        "odom_source": log.odom_source or None,
+    }
+    if log.scan_topic:
+        spec = log.lidar_spec
+        info["scans"] = next((t.count for t in log.topics if t.name == log.scan_topic), 0)
+        if log.laser_lines is not None:
+            info["laser_lines"] = log.laser_lines
+        info["scanner"] = {
+            "beams": spec.n_beams,
+            "fov_deg": round(math.degrees(spec.fov_rad), 3),
+            "angle_min_deg": round(math.degrees(spec.angle_min_rad), 3),
+            "angle_increment_deg": round(math.degrees(spec.angle_increment_rad), 4),
+            "range_min_m": round(spec.range_min_m, 3),
+            "range_max_m": round(spec.range_max_m, 3),
+            "base_to_laser": [spec.base_to_laser.x_m, spec.base_to_laser.y_m, spec.base_to_laser.yaw_rad],
+        }
+    return info
+
+
+def _stamp_text(ns: int) -> str:
+    if ns > 10**17:  # absolute (epoch) time
+        return datetime.fromtimestamp(ns / 1e9, tz=UTC).isoformat(timespec="milliseconds")
+    return f"{ns / 1e9:.3f} s (relative)"
+
+
+def print_info(info: dict[str, Any]) -> None:
+    """Prints :func:`describe`'s dict as ``mcnkit info`` shows it."""
+    print(f"file      {info['path']}")
+    print(f"format    {info['format']}")
+    print(f"start     {_stamp_text(info['start_ns'])}")
+    print(f"end       {_stamp_text(info['end_ns'])}")
+    print(f"duration  {info['duration_s']:.3f} s")
+    print("topics")
+    width = max([len(t["name"]) for t in info["topics"]] + [5])
+    for t in info["topics"]:
+        print(f"  {t['name']:<{width}}  {t['count']:>7}  {t['type']}")
+    print(f"scan      {info['scan_topic'] or 'none (no sensor_msgs/LaserScan topic)'}")
+    print(f"odometry  {info['odom_source'] or 'none (no Odometry topic, no odom->base transform)'}")
+    if "scanner" in info:
+        s = info["scanner"]
+        read = f" (read from {info['laser_lines']} laser lines)" if "laser_lines" in info else ""
+        print(f"scanner   {info['scans']} scans{read} of {s['beams']} beams, field of view {s['fov_deg']}° "
+              f"(from {s['angle_min_deg']}° in {s['angle_increment_deg']}° steps), "
+              f"range {s['range_min_m']}–{s['range_max_m']} m, mount {s['base_to_laser']}")
