@@ -36,7 +36,8 @@ from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from mcnkit.datasets.floorplans import generate_apartment, rasterize_apartment
-from mcnkit.datasets.houseexpo import find_houseexpo, load_plan, rasterize_plan
+from mcnkit.datasets.houseexpo import houseexpo_source as find_houseexpo_source
+from mcnkit.datasets.houseexpo import load_plan, rasterize_plan
 from mcnkit.geometry import compose, relative, wrap_angle
 from mcnkit.io import GroundTruthMap, LogContent, write_log
 from mcnkit.types import Frame, GridSpec, LidarSpec, Pose2D, Scan, Trajectory
@@ -150,9 +151,10 @@ def plan_raster(
         free, grid = rasterize_apartment(apartment, resolution_m, border)
         return PlanRaster(map_spec, free, grid, apartment.room_centres_m)
     if kind == "houseexpo":
-        source = houseexpo_source if houseexpo_source is not None else find_houseexpo()
+        source = find_houseexpo_source(houseexpo_source)
         if source is None:
-            raise ValueError("HouseExpo is not installed: run `mcnkit data install houseexpo --from PATH_OR_URL`")
+            raise ValueError("HouseExpo is not installed: run `mcnkit data install houseexpo --from PATH_OR_URL` "
+                             "(or set MCNKIT_SHARED_DATA to a folder holding houseexpo/json.tar.gz)")
         plan = load_plan(source, arg)  # PlanError is a ValueError
         free, grid = rasterize_plan(plan, resolution_m, border)
         boxes = plan.room_boxes_m

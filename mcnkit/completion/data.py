@@ -26,9 +26,8 @@ from mcnkit.datasets import (
     load_or_build_houseexpo_pairs,
     procedural_pairs,
 )
-from mcnkit.datasets.houseexpo import default_data_dir, find_houseexpo
+from mcnkit.datasets.houseexpo import default_data_dir, houseexpo_source
 from mcnkit.grid import ternary_to_network
-from mcnkit.locations import shared_data_dir
 
 __all__ = ["DOMAINS", "augment_dihedral", "encode", "load_domain_pairs"]
 
@@ -40,11 +39,6 @@ _HOUSEEXPO_DOMAINS: dict[str, dict[str, Any]] = {
 """HouseExpo domains: how each one's :class:`~mcnkit.datasets.PairConfig` differs from the paper's."""
 if DOMAINS != (*_HOUSEEXPO_DOMAINS, "procedural"):  # the names the command line offers are the ones built here
     raise ImportError(f"mcnkit.completion.registry.DOMAINS {DOMAINS} differs from the domains of {__name__}")
-
-
-def _shared_houseexpo() -> Path | None:
-    archive = shared_data_dir() / "houseexpo" / "json.tar.gz"
-    return archive if archive.is_file() else None
 
 
 def load_domain_pairs(
@@ -62,7 +56,7 @@ def load_domain_pairs(
         return procedural_pairs(n_train, n_val, n_test, seed=seed)
     if domain not in _HOUSEEXPO_DOMAINS:
         raise ValueError(f"unknown domain {domain!r} (choose from {', '.join(DOMAINS)})")
-    source = Path(houseexpo) if houseexpo else (find_houseexpo() or _shared_houseexpo())
+    source = houseexpo_source(houseexpo or None)
     if source is None or not source.exists():
         raise FileNotFoundError(2, "HouseExpo not found (install it or pass --houseexpo)", str(source or "houseexpo"))
     cache = Path(cache_dir) if cache_dir else default_data_dir() / "cache" / f"{domain}-{n_train}"

@@ -39,7 +39,7 @@ from typing import BinaryIO
 import numpy as np
 from numpy.typing import NDArray
 
-from mcnkit.locations import data_dir
+from mcnkit.locations import data_dir, shared_data_dir
 from mcnkit.types import GridSpec
 
 __all__ = [
@@ -341,6 +341,15 @@ def find_houseexpo(data_dir: str | os.PathLike[str] | None = None) -> Path | Non
         if cand.exists():
             return cand
     return None
+
+
+def houseexpo_source(explicit: str | os.PathLike[str] | None = None) -> Path | None:
+    """HouseExpo to read: ``explicit``, else the installed copy (:func:`find_houseexpo`), else the shared archive
+    (``houseexpo/json.tar.gz`` under :func:`mcnkit.locations.shared_data_dir`); None when there is none."""
+    if explicit is not None:
+        return Path(explicit)
+    shared = shared_data_dir() / "houseexpo" / "json.tar.gz"
+    return find_houseexpo() or (shared if shared.is_file() else None)
 
 
 def _open_source(src: str) -> tuple[BinaryIO, str]:
