@@ -94,7 +94,7 @@ def run_slam(args: argparse.Namespace) -> int:
     the results so far, ``"interrupted": true`` in ``summary.json``)."""
     import numpy as np
 
-    from mcnkit.cli import fail
+    from mcnkit.exits import fail
     from mcnkit.drive import SIGNALS, ProgressSink, Sink, drive
     from mcnkit.io import open_log
     from mcnkit.io.errors import LogError
