@@ -94,8 +94,8 @@ def run_slam(args: argparse.Namespace) -> int:
     the results so far, ``"interrupted": true`` in ``summary.json``)."""
     import numpy as np
 
-    from mcnkit.exits import fail
     from mcnkit.drive import SIGNALS, ProgressSink, Sink, drive
+    from mcnkit.exits import fail
     from mcnkit.io import open_log
     from mcnkit.io.errors import LogError
     from mcnkit.outputs import Output, OutputError, check_outputs
