@@ -32,7 +32,7 @@ if TYPE_CHECKING:  # nothing heavy at import: ``mcnkit``'s main() imports this m
     from mcnkit.types import Frame
 
 __all__ = ["SIGNALS", "CallbackSink", "DriveStep", "Interrupted", "Outcome", "ProgressSink", "Signals", "Sink",
-           "Stepper", "drive"]
+           "Stepper", "close_sinks", "drive"]
 
 
 class Stepper(Protocol):
@@ -90,8 +90,9 @@ def _as_step(frame: Frame, result: Any) -> DriveStep:
     return DriveStep(frame, result)
 
 
-def _close_all(sinks: Sequence[Sink], outcome: Outcome) -> BaseException | None:
-    """Closes every sink, even when one fails; returns the first failure."""
+def close_sinks(sinks: Sequence[Sink], outcome: Outcome) -> BaseException | None:
+    """Closes every sink, even when one fails; returns the first failure (for a drive run with
+    ``close=False``, closed by its caller when the last part has run)."""
     first: BaseException | None = None
     for sink in sinks:
         try:
@@ -102,12 +103,13 @@ def _close_all(sinks: Sequence[Sink], outcome: Outcome) -> BaseException | None:
 
 
 def drive(frames: Iterable[Frame], stepper: Stepper, sinks: Sequence[Sink] = (), *,
-          stop: Callable[[], str | None] | None = None) -> Outcome:
+          stop: Callable[[], str | None] | None = None, close: bool = True) -> Outcome:
     """Feeds ``frames`` to ``stepper`` one at a time and hands every step to ``sinks``; returns the outcome.
 
     ``stop()`` is asked before every frame (and once after the last): a non-None answer (the reason) ends the loop
     there.  An exception from the frames, the stepper or a sink closes every sink (with an outcome naming it) and
-    propagates.
+    propagates.  ``close=False`` leaves the sinks open when the frames run out, for a run driven in parts (a
+    notebook's step button): the caller ends it with :func:`close_sinks`.
     """
     cpu0, wall0 = time.process_time(), time.perf_counter()
     scans = 0
@@ -127,12 +129,14 @@ def drive(frames: Iterable[Frame], stepper: Stepper, sinks: Sequence[Sink] = (),
         if stopped_by is None and stop is not None:
             stopped_by = stop()
     except BaseException as err:
-        failure = _close_all(sinks, outcome(f"{type(err).__name__}: {err}".splitlines()[0]))
+        failure = close_sinks(sinks, outcome(f"{type(err).__name__}: {err}".splitlines()[0]))
         if failure is not None and failure is not err:
             raise err from failure
         raise
     done = outcome(stopped_by)
-    failure = _close_all(sinks, done)
+    if not close and stopped_by is None:
+        return done
+    failure = close_sinks(sinks, done)
     if failure is not None:
         raise failure
     return done

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
+from itertools import islice
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
+from mcnkit.drive import CallbackSink, Outcome, Sink, close_sinks, drive
 from mcnkit.plots import plot_slam_state
+from mcnkit.sinks import RecordingSink
 from mcnkit.slam import FastSlam, SlamConfig, SlamStep
 from mcnkit.types import Frame, TernaryMap
 from mcnkit.viz import RerunLogger, recording_viewer
@@ -45,6 +48,8 @@ class SlamStepper:
         self.events: list[str] = []
         self._ui: dict[str, Any] = {}
         self._logger: RerunLogger | None = None
+        self._sinks: list[Sink] = []
+        self.index = 0
         self._on_change: list[Callable[[], None]] = []
         self.reset()
 
@@ -64,30 +69,28 @@ class SlamStepper:
     def reset(self) -> None:
         """A new filter and a new recording (the old file is replaced)."""
         if self._logger is not None:
-            self._logger.close()
+            close_sinks(self._sinks, Outcome(self.index, "reset", 0.0, 0.0))
         self.slam = FastSlam(self.config(), np.random.default_rng(self.seed))
         self._logger = RerunLogger(self.rrd_path, recording_id=f"stepper-{self.seed}", notebook_viewer=self.use_viewer,
                                    atomic=False)  # the file grows as the user steps (flushed after each step)
         if self.ground_truth is not None:
             self.logger.log_ground_truth(self.ground_truth)
+        # the one driver, run in parts: every filter update's map and the tracked path recorded, events noted
+        self._sinks = [RecordingSink(self.logger, self.slam, map_every=1, trajectory="tracked"),
+                       CallbackSink(self._note)]
         self.index = 0
         self.last: SlamStep | None = None
         self.events = []
 
+    def _note(self, frame: Frame, st: SlamStep) -> None:
+        self.last = st
+        if st.updated and st.resampled:
+            self.events.append(f"scan {st.index}: resampled (N_eff was {st.neff:.1f} of {self.particles})")
+
     def step(self, n: int = 1) -> SlamStep | None:
         """Runs ``n`` more scans (fewer at the end of the log); returns the last step."""
-        for _ in range(n):
-            if self.index >= len(self.frames):
-                break
-            frame = self.frames[self.index]
-            st = self.slam.step(frame)
-            self.logger.log_slam_step(frame, st, self.slam.trajectory().poses[:, :2] if st.updated else None)
-            if st.updated:
-                self.logger.log_map("/world/map/estimate", self.slam.best_ternary(), mask=True)
-                if st.resampled:
-                    self.events.append(f"scan {st.index}: resampled (N_eff was {st.neff:.1f} of {self.particles})")
-            self.last = st
-            self.index += 1
+        part = drive(islice(self.frames, self.index, self.index + max(0, n)), self.slam, self._sinks, close=False)
+        self.index += part.scans
         self.logger.rec.flush()
         for callback in self._on_change:
             callback()
@@ -96,7 +99,7 @@ class SlamStepper:
     def run(self) -> SlamStep | None:
         """Runs to the end of the log and finalises the recording."""
         last = self.step(len(self.frames))
-        self.logger.close()
+        close_sinks(self._sinks, Outcome(self.index, None, 0.0, 0.0))
         return last
 
     def status(self) -> str:
