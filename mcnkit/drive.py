@@ -17,6 +17,7 @@ there Ctrl-C raises ``KeyboardInterrupt`` as usual and the sinks are still close
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import time
@@ -222,6 +223,16 @@ class Signals:
             yield self
         finally:
             self._deferring -= 1
+
+    def wait(self, seconds: float) -> str | None:
+        """Sleeps ``seconds`` (< 0: until a signal) or until SIGINT / SIGTERM, with signals deferred; returns the
+        signal's name (None: the time ran out) and forgets it: it ended the wait, not the command."""
+        deadline = math.inf if seconds < 0 else time.monotonic() + seconds
+        with self.deferred():
+            while self.received is None and (left := deadline - time.monotonic()) > 0:
+                time.sleep(min(0.2, left))
+            name, self.received = self.requested(), None
+        return name
 
     def requested(self) -> str | None:
         """The name of the signal received (``"SIGINT"``, ``"SIGTERM"``), None if none."""
