@@ -33,12 +33,13 @@ def _rerun_binary() -> Path:
     return Path(rerun_cli.__file__).parent / "rerun"  # the binary itself: ending it ends the server
 
 
-def _write_clf(path: Path, n: int = 30) -> None:
-    """A robot driving +x at 0.1 m per scan in a 4 m wide corridor, 181 beams (as tests/slam/test_cli.py)."""
+def _write_clf(path: Path, n: int = 30, *, back_and_forth: bool = False) -> None:
+    """A robot driving +x at 0.1 m per scan in a 4 m wide corridor, 181 beams (as tests/slam/test_cli.py); or, for
+    long logs, back and forth between x = 1 and x = 5."""
     angles = np.radians(np.linspace(-90, 90, 181))
     lines = []
     for k in range(n):
-        x = 0.1 * k
+        x = 3.0 - 2.0 * np.cos(0.05 * k) if back_and_forth else 0.1 * k
         with np.errstate(divide="ignore"):
             r = np.abs(np.where(np.sin(angles) > 0, 2.0, -2.0) / np.sin(angles))
         r = np.minimum(np.minimum(r, (8.0 - x) / np.maximum(np.cos(angles), 1e-3)), 81.91)
@@ -138,18 +139,19 @@ def test_slam_streams_to_a_running_viewer_and_to_its_file(tmp_path: Path, viewer
 def test_an_interrupted_live_run_leaves_a_readable_file(tmp_path: Path, viewer: tuple[int, Path]) -> None:
     port, received = viewer
     log, rrd = tmp_path / "long.clf", tmp_path / "run.rrd"
-    _write_clf(log, 600)
+    _write_clf(log, 5000, back_and_forth=True)  # far longer than the test waits
     proc = subprocess.Popen([sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "4", "--out",
                              str(tmp_path / "out"), "--rrd", str(rrd), "--no-progress", "--connect",
                              f"rerun+http://127.0.0.1:{port}/proxy"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=ENV)
     _wait_rows(received, 5, timeout_s=60)  # it is running and the viewer gets it
+    assert proc.poll() is None, proc.communicate()
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130 and "Traceback" not in err, err
     _verify(rrd)
     _, rows = _entities(rrd)
-    assert 5 <= rows < 600
+    assert 5 <= rows < 5000
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["interrupted"] is True
 
 
