@@ -197,7 +197,8 @@ class Signals:
     @contextmanager
     def installed(self, enabled: bool = True) -> Iterator[Signals]:
         """Inside, the handlers are installed (``enabled``: call from the main thread only): a signal raises
-        :class:`Interrupted`, or is noted inside :meth:`deferred`; the previous handlers come back on leaving."""
+        :class:`Interrupted`, or is noted inside :meth:`deferred`; the previous handlers come back on leaving, and
+        the signal received is forgotten."""
         self.received = None
         previous = {s: signal.signal(s, self._handle) for s in self.HANDLED} if enabled else {}
         try:
@@ -205,6 +206,7 @@ class Signals:
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+            self.received = None  # a signal ends the command it came in; the next call starts afresh
 
     def _handle(self, signum: int, _frame: FrameType | None) -> None:
         if not self._deferring:

@@ -248,9 +248,11 @@ class _Tee:
         for s in self.streams:
             s.set_time(*args, **kwargs)
 
-    def send_columns(self, *args: Any, **kwargs: Any) -> None:
+    def send_columns(self, *args: Any, live: bool | None = None, **kwargs: Any) -> None:
+        """To every stream (``live=None``), the live ones only (True) or the file only (False)."""
         for s in self.streams:
-            s.send_columns(*args, **kwargs)
+            if live is None or live == (s is not self.file):
+                s.send_columns(*args, **kwargs)
 
     def flush(self) -> None:
         for s in self.streams:
@@ -358,6 +360,7 @@ class RerunLogger:
         self._paths_logged_at = 0
         self.flush_updates = flush_updates
         self._queued: dict[str, tuple[str, list[int], list[int], list[Any]]] = {}  # entity -> kind, rows
+        self._live_sent: dict[str, int] = {}  # entity -> its queued rows already sent to the live streams
         self._closed = False
 
     @property
@@ -451,16 +454,27 @@ class RerunLogger:
         queue[2].append(stamp_ns)
         queue[3].append(value)
 
-    def _flush(self) -> None:
-        """Sends every queued entity as one column chunk (``send_columns``)."""
+    def _flush(self, *, live_only: bool = False) -> None:
+        """Sends every queued entity as one column chunk (``send_columns``): the rows not sent yet to the live
+        streams, and, unless ``live_only``, all of them to the file (which keeps its own, larger batches)."""
         for entity, (kind, steps, stamps, values) in self._queued.items():
-            if steps:
-                index = [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
-                         rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
-                self.rec.send_columns(entity, index, _columns(kind, values))
+            sent = self._live_sent.get(entity, 0)
+            if len(steps) > sent and len(self.rec.streams) > (self.rec.file is not None):
+                self.rec.send_columns(entity, self._index(steps[sent:], stamps[sent:]), _columns(kind, values[sent:]),
+                                      live=True)
+                self._live_sent[entity] = len(steps)
+            if steps and not live_only:
+                if self.rec.file is not None:
+                    self.rec.send_columns(entity, self._index(steps, stamps), _columns(kind, values), live=False)
                 steps.clear()
                 stamps.clear()
                 values.clear()
+                self._live_sent[entity] = 0
+
+    @staticmethod
+    def _index(steps: list[int], stamps: list[int]) -> list[Any]:
+        return [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
+                rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
 
     def log_ground_truth(self, ternary: TernaryMap) -> None:
         """The ground-truth map (static: the same at every step)."""
@@ -488,10 +502,12 @@ class RerunLogger:
         self._odom_path.append(frame.odom.as_array()[:2])
         if step.updated:  # row-by-row logs below (and log_mcn_step's) happen at filter updates only
             self._updates += 1
-        # a notebook viewer gets every scan at once, a gRPC viewer every filter update, the file every flush_updates
-        if self.viewer is not None or (step.updated and (self.live is not None
-                                                         or self._updates % self.flush_updates == 0)):
+        # a notebook viewer gets every scan at once (and so does the file then, which the notebook's player reads
+        # as it grows), a gRPC viewer every filter update, the file otherwise every flush_updates updates
+        if self.viewer is not None or (step.updated and self._updates % self.flush_updates == 0):
             self._flush()
+        elif step.updated and self.live is not None:
+            self._flush(live_only=True)
         if step.updated:
             self.set_time(step.index, step.stamp_ns)
             # whole paths, re-sent every max(1, updates/50) updates: a growing path without quadratic file size
