@@ -19,9 +19,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mcnkit.completion.registry import MODELS
+from mcnkit.recording import add_recording_flags
 
 if TYPE_CHECKING:
-    from mcnkit.drive import Signals
+    from mcnkit.drive import Outcome, Signals
+    from mcnkit.mcn import McnSlam
+    from mcnkit.recording import LiveViewer, RecordingConfig
+    from mcnkit.sim import SimResult
+    from mcnkit.sinks import RunSummary
 
 __all__ = ["DemoResult", "add_demo_parser", "run_demo"]
 
@@ -47,25 +52,28 @@ class DemoResult:
 
 def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particles: int = 30,
              duration_s: float = 120.0, samples: int = 4, ranks: int = 2, model: str = "unet",
-             progress: bool = True, signals: Signals | None = None) -> DemoResult:
+             progress: bool = True, signals: Signals | None = None, live: LiveViewer | None = None,
+             recording: RecordingConfig | None = None) -> DemoResult:
     """Simulates, records and scores one run (see the module docstring).
 
     With ``signals`` (``mcnkit demo``), a SIGINT / SIGTERM during MCN-SLAM stops it between frames, the recording
-    and outputs so far are written, and :class:`~mcnkit.drive.Interrupted` is raised.
+    and outputs so far are written, and :class:`~mcnkit.drive.Interrupted` is raised; a recording served live
+    (``live``, see :mod:`mcnkit.recording`) stays up after the run for ``recording.linger_s``.
     """
+    import dataclasses
     from contextlib import nullcontext
 
     import numpy as np
     import torch
 
-    from mcnkit.drive import Interrupted, drive
+    from mcnkit.drive import drive
     from mcnkit.io import open_log
     from mcnkit.io.info import describe, print_info
     from mcnkit.mcn import McnConfig, McnSlam, load_model
-    from mcnkit.metrics import absolute_trajectory_error
-    from mcnkit.run import mcn_sinks
+    from mcnkit.recording import RecordingConfig
+    from mcnkit.run import mcn_sinks, recording_logger
     from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
-    from mcnkit.sinks import McnOutputs
+    from mcnkit.sinks import McnOutputs, announce_live, serve_on
     from mcnkit.slam import SlamConfig
     from mcnkit.types import TernaryMap
 
@@ -82,15 +90,40 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
     truth = TernaryMap(np.where(raster.free, 0.0, 1.0).astype(np.float32), raster.grid)
     print(f"[3/4] MCN-SLAM: {particles} particles, {samples} completions of the {ranks} best maps per filter "
           f"update ({model}), recording every step to {rrd}")
-    mcn = McnSlam(SlamConfig(n_particles=particles), load_model(model), McnConfig(samples=samples, ranks=ranks),
-                  np.random.default_rng(seed), generator=torch.Generator().manual_seed(seed), ground_truth=truth)
+    slam_config, mcn_config = SlamConfig(n_particles=particles), McnConfig(samples=samples, ranks=ranks)
+    recording = recording or RecordingConfig()
+    mcn = McnSlam(slam_config, load_model(model), mcn_config, np.random.default_rng(seed),
+                  generator=torch.Generator().manual_seed(seed), ground_truth=truth)
+    info = {"command": "demo", "log": str(log_path), "model": model, "samples": samples, "ranks": ranks,
+            "particles": particles, "seed": seed, "apartment": apartment, "duration_s": duration_s,
+            "config": dataclasses.asdict(slam_config), "mcn": dataclasses.asdict(mcn_config),
+            "recording": dataclasses.asdict(recording)}
     with signals.deferred() if signals is not None else nullcontext():
         summary, sinks = mcn_sinks(mcn, rrd=rrd, recording_id=f"demo-apartment{apartment}-seed{seed}",
-                                   ground_truth=truth, progress=progress)
-        info = {"log": str(log_path), "model": model, "samples": samples, "ranks": ranks, "particles": particles,
-                "seed": seed, "apartment": apartment}
+                                   ground_truth=truth, progress=progress, live=live, config=info,
+                                   flush_updates=recording.flush_updates, keep_serving=signals is not None)
+        logger = recording_logger(sinks)
+        if logger is not None:
+            announce_live(logger)
         sinks.append(McnOutputs(out, mcn, summary, info, dpi=100))
         outcome = drive(frames, mcn, sinks, stop=signals.requested if signals is not None else None)
+    try:
+        result = _score(outcome, signals, mcn, sim, summary, log_path, rrd, out, t0)
+    except BaseException:
+        if logger is not None:
+            logger.stop_serving()
+        raise
+    if logger is not None:
+        serve_on(logger, recording.linger_s, signals)
+    return result
+
+
+def _score(outcome: Outcome, signals: Signals | None, mcn: McnSlam, sim: SimResult, summary: RunSummary,
+           log_path: Path, rrd: Path, out: Path, t0: float) -> DemoResult:
+    """Step 4: the run against the ground truth, printed and written to ``demo.json``."""
+    from mcnkit.drive import Interrupted
+    from mcnkit.metrics import absolute_trajectory_error
+
     if outcome.interrupted and signals is not None and signals.received is not None:
         raise Interrupted(signals.received)
     ate_slam = absolute_trajectory_error(mcn.slam.trajectory(), sim.ground_truth)
@@ -109,15 +142,23 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
 
 
 def _main(args: argparse.Namespace) -> int:
+    from mcnkit.cli import fail
     from mcnkit.drive import SIGNALS
     from mcnkit.outputs import Output, check_outputs
+    from mcnkit.recording import RecordingConfig, ViewerError, live_viewer
+    from mcnkit.runconfig import ConfigError, resolve_section
 
+    try:
+        recording = resolve_section(RecordingConfig, args, "recording", {})
+        live = live_viewer(args, recording)
+    except (ConfigError, ViewerError) as err:
+        return fail("demo", err)
     model_path = [] if args.model in MODELS else [Path(args.model)]
     rrd = args.rrd if args.rrd is not None else args.out / "demo.rrd"
     check_outputs(model_path, [Output(args.out, folder=True), Output(rrd)], overwrite=args.overwrite)
     result = run_demo(args.out, rrd, apartment=args.apartment, seed=args.seed, particles=args.particles,
                       duration_s=args.duration_s, samples=args.samples, ranks=args.ranks, model=args.model,
-                      signals=SIGNALS)
+                      signals=SIGNALS, live=live, recording=recording)
     print(f"\nrecording: {result.rrd_path}   map: {result.map_png}   completions: {result.completion_png}")
     print(f"watch it:  .venv/bin/rerun {result.rrd_path}        (or open it in notebooks/01_quickstart.ipynb)")
     return 0
@@ -134,7 +175,8 @@ _DESCRIPTION = """MCN-SLAM end to end on embedded data (no download, shipped net
      space, SLAM map vs completed map, at the first and the last filter update).
 
 Outputs go to recordings/demo/ by default (git ignores it); an earlier run there is replaced only with
---overwrite.  Ctrl-C or SIGTERM during MCN-SLAM writes the recording and outputs so far (exit 130 / 143)."""
+--overwrite.  Ctrl-C or SIGTERM during MCN-SLAM writes the recording and outputs so far (exit 130 / 143).
+Watch it live: --connect streams to a running Rerun viewer, --serve from a gRPC server on 127.0.0.1."""
 
 
 def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -153,4 +195,5 @@ def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--ranks", type=int, default=2, help="R best particles completed (default 2)")
     p.add_argument("--model", default="unet",
                    help=f"{', '.join(MODELS)} (shipped weights) or a checkpoint path (default unet)")
+    add_recording_flags(p)
     p.set_defaults(func=_main)

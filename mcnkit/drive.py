@@ -17,6 +17,7 @@ there Ctrl-C raises ``KeyboardInterrupt`` as usual and the sinks are still close
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import time
@@ -200,7 +201,8 @@ class Signals:
     @contextmanager
     def installed(self, enabled: bool = True) -> Iterator[Signals]:
         """Inside, the handlers are installed (``enabled``: call from the main thread only): a signal raises
-        :class:`Interrupted`, or is noted inside :meth:`deferred`; the previous handlers come back on leaving."""
+        :class:`Interrupted`, or is noted inside :meth:`deferred`; the previous handlers come back on leaving, and
+        the signal received is forgotten."""
         self.received = None
         previous = {s: signal.signal(s, self._handle) for s in self.HANDLED} if enabled else {}
         try:
@@ -208,6 +210,7 @@ class Signals:
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+            self.received = None  # a signal ends the command it came in; the next call starts afresh
 
     def _handle(self, signum: int, _frame: FrameType | None) -> None:
         if not self._deferring:
@@ -226,6 +229,16 @@ class Signals:
             yield self
         finally:
             self._deferring -= 1
+
+    def wait(self, seconds: float) -> str | None:
+        """Sleeps ``seconds`` (< 0: until a signal) or until SIGINT / SIGTERM, with signals deferred; returns the
+        signal's name (None: the time ran out) and forgets it: it ended the wait, not the command."""
+        deadline = math.inf if seconds < 0 else time.monotonic() + seconds
+        with self.deferred():
+            while self.received is None and (left := deadline - time.monotonic()) > 0:
+                time.sleep(min(0.2, left))
+            name, self.received = self.requested(), None
+        return name
 
     def requested(self) -> str | None:
         """The name of the signal received (``"SIGINT"``, ``"SIGTERM"``), None if none."""

@@ -33,7 +33,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 import torch
@@ -45,6 +44,7 @@ from mcnkit.completion.sample import inference_net, label_entropy, sample_comple
 from mcnkit.completion.scores import miou_unknown, score_maps
 from mcnkit.geometry import compose
 from mcnkit.grid import network_to_ternary, pool_to_window, ternary_to_network
+from mcnkit.mcn_config import McnConfig
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.fastslam import FastSlam, SlamStep
 from mcnkit.slam.lineage import LineageMap
@@ -68,40 +68,6 @@ def load_model(name_or_path: str | Path, device: str | torch.device = "cpu") -> 
                               "(NAME.safetensors + NAME.json)")
     net, _info = load_generator(path)
     return net.to(device).eval()
-
-
-@dataclass(frozen=True)
-class McnConfig:
-    """How MCN-SLAM completes maps (the SLAM itself is configured by :class:`~mcnkit.slam.SlamConfig`)."""
-
-    samples: int = 4
-    """K completions per particle."""
-    ranks: int = 3
-    """R best particles completed at each filter update."""
-    window: Literal["map", "robot"] = "map"
-    """``"map"``: the whole map seen so far shrunk to ``size``² (the paper); ``"robot"``: a robot-centred square."""
-    window_m: float = 12.8
-    """Side of the robot-centred window [m]."""
-    size: int = 64
-    """Cells per side of the network's window (divisible by 2^depth of the network)."""
-    margin_m: float = 0.0
-    """Border around the seen map in the ``"map"`` window [m] (0: the map's own extent, as the training maps)."""
-    every: int = 1
-    """Complete at every ``every``-th filter update."""
-    full_map_every: int = 1
-    """Put the best particle's full-resolution map in every ``full_map_every``-th completed step (0: never)."""
-    full_map_max_cells: int = 600_000
-    """Larger maps come in ``StepResult.best_map`` pooled by a whole factor (walls kept) to at most this many cells."""
-    completion_weight: float = 0.0
-    """> 0: weight particles by how well the scan fits their completed map in unknown cells (see module doc)."""
-    hit_epsilon: float = 0.1
-    """Floor of the per-beam likelihood of the completion weighting."""
-
-    def __post_init__(self) -> None:
-        if self.samples < 1 or self.ranks < 1 or self.every < 1 or self.size < 4:
-            raise ValueError(f"invalid MCN config: {self}")
-        if self.window not in ("map", "robot"):
-            raise ValueError(f"window must be 'map' or 'robot', got {self.window!r}")
 
 
 def map_window(bounds_m: tuple[float, float, float, float], size: int, margin_m: float = 0.0,

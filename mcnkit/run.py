@@ -10,6 +10,11 @@ An interrupted run (Ctrl-C, SIGTERM, a damaged log) still closes the recording (
 writes ``--out`` with the results so far (``"interrupted": true`` in ``summary.json``); exit code 130 / 143 for a
 signal.  Outputs never replace an input, and replace an existing file only with ``--overwrite``.
 
+``--connect [URL]`` streams the recording live to a running viewer and ``--serve`` from a gRPC server of its own on
+127.0.0.1 (see :mod:`mcnkit.recording`), also beside ``--rrd``.  Settings: ``--slam.FIELD``, ``--mcn.FIELD`` and
+``--recording.FIELD`` for every field of SlamConfig, McnConfig and RecordingConfig, or ``--config`` (TOML tables,
+or a run's ``summary.json``, which holds them all; so does the recording, at ``/config``).
+
 :func:`run_mcn` is the same loop for scripts and notebooks (frames in, a :class:`RunSummary` out).
 """
 
@@ -19,9 +24,11 @@ import argparse
 import dataclasses
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mcnkit.completion.registry import MODELS
+from mcnkit.mcn_config import McnConfig
+from mcnkit.recording import add_recording_flags
 from mcnkit.runconfig import add_dataclass_flags
 from mcnkit.sinks import RunSummary
 from mcnkit.slam.config import SlamConfig
@@ -29,7 +36,9 @@ from mcnkit.slam.config import SlamConfig
 if TYPE_CHECKING:
     from mcnkit.drive import Sink
     from mcnkit.mcn import McnSlam, StepResult
+    from mcnkit.recording import LiveViewer
     from mcnkit.types import Frame, TernaryMap
+    from mcnkit.viz import RerunLogger
 
 __all__ = ["RunSummary", "add_run_parser", "mcn_sinks", "run_mcn"]
 
@@ -37,32 +46,49 @@ __all__ = ["RunSummary", "add_run_parser", "mcn_sinks", "run_mcn"]
 def mcn_sinks(mcn: McnSlam, *, rrd: Path | None = None, recording_id: str | None = None,
               ground_truth: TernaryMap | None = None, progress: bool = True, total: int | None = None,
               on_step: Callable[[Frame, StepResult], None] | None = None, notebook_viewer: bool = False,
-              optimize: bool = True) -> tuple[RunSummary, list[Sink]]:
-    """The sinks of an MCN-SLAM run (statistics, recording, progress bar, callback) and the summary they fill."""
+              optimize: bool = True, live: LiveViewer | None = None, config: dict[str, Any] | None = None,
+              flush_updates: int = 50, keep_serving: bool = False) -> tuple[RunSummary, list[Sink]]:
+    """The sinks of an MCN-SLAM run (statistics, recording, progress bar, callback) and the summary they fill.
+
+    The recording goes to ``rrd`` and/or ``live`` (a running viewer, a server of its own: see
+    :mod:`mcnkit.recording`); ``config`` (the run's whole configuration) is written into it.  With
+    ``keep_serving`` a served recording stays up after a finished run (see :func:`mcnkit.sinks.serve_on`).
+    """
     from mcnkit.drive import CallbackSink, ProgressSink
     from mcnkit.sinks import McnStats, RecordingSink
 
     stats = McnStats(mcn)
     sinks: list[Sink] = [stats]
-    if rrd is not None:
+    if rrd is not None or live is not None:
         from mcnkit.viz import RerunLogger, mcn_blueprint
 
         cfg = mcn.config
-        logger = RerunLogger(rrd, recording_id, mcn_blueprint(cfg.ranks, cfg.samples), notebook_viewer=notebook_viewer)
+        logger = RerunLogger(rrd, recording_id, mcn_blueprint(cfg.ranks, cfg.samples), notebook_viewer=notebook_viewer,
+                             live=live, config=config, flush_updates=flush_updates)
         if ground_truth is not None:
             logger.log_ground_truth(ground_truth)
-        sinks.append(RecordingSink(logger, mcn.slam, optimize=optimize, summary=stats.summary))
+        sinks.append(RecordingSink(logger, mcn.slam, optimize=optimize, summary=stats.summary,
+                                   keep_serving=keep_serving))
     sinks.append(ProgressSink(total, enabled=progress))
     if on_step is not None:
         sinks.append(CallbackSink(on_step))
     return stats.summary, sinks
 
 
+def recording_logger(sinks: list[Sink]) -> RerunLogger | None:
+    """The Rerun logger among ``sinks`` (None without a recording)."""
+    from mcnkit.sinks import RecordingSink
+
+    return next((s.logger for s in sinks if isinstance(s, RecordingSink)), None)
+
+
 def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, recording_id: str | None = None,
             ground_truth: TernaryMap | None = None, progress: bool = True, total: int | None = None,
             on_step: Callable[[Frame, StepResult], None] | None = None, notebook_viewer: bool = False,
-            optimize: bool = True) -> RunSummary:
-    """Feeds ``frames`` to ``mcn`` and records each step to ``rrd`` (when given); returns the summary.
+            optimize: bool = True, live: LiveViewer | None = None,
+            config: dict[str, Any] | None = None) -> RunSummary:
+    """Feeds ``frames`` to ``mcn`` and records each step to ``rrd`` and/or ``live`` (when given); returns the
+    summary.
 
     ``on_step(frame, result)`` is called after every step (a notebook can draw from it).  A finished recording is
     compacted with ``rerun rrd optimize`` unless ``optimize=False`` (an interrupted one is left as written).  An
@@ -73,9 +99,13 @@ def run_mcn(frames: Iterable[Frame], mcn: McnSlam, *, rrd: Path | None = None, r
 
     summary, sinks = mcn_sinks(mcn, rrd=rrd, recording_id=recording_id, ground_truth=ground_truth,
                                progress=progress, total=total, on_step=on_step, notebook_viewer=notebook_viewer,
-                               optimize=optimize)
+                               optimize=optimize, live=live, config=config)
     drive(frames, mcn, sinks)
     return summary
+
+
+_RUN_MAP_EVERY = 5
+"""``mcnkit run``'s default McnConfig.full_map_every (the library's is 1): the best full map every 5 completions."""
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -87,50 +117,72 @@ def cmd_run(args: argparse.Namespace) -> int:
     from mcnkit.drive import SIGNALS, drive
     from mcnkit.exits import fail
     from mcnkit.io import open_log
-    from mcnkit.mcn import McnConfig, McnSlam, load_model
+    from mcnkit.mcn import McnSlam, load_model
     from mcnkit.outputs import Output, check_outputs
-    from mcnkit.runconfig import ConfigError, resolve_slam_config
-    from mcnkit.sinks import McnOutputs
+    from mcnkit.recording import RecordingConfig, ViewerError, live_viewer
+    from mcnkit.runconfig import ConfigError, config_file, resolve_section, resolve_slam_config
+    from mcnkit.sinks import McnOutputs, announce_live, serve_on
 
-    model_path = [] if args.model in MODELS else [Path(args.model)]
+    try:
+        file = config_file(args)
+        slam_config, seed = resolve_slam_config(args, file)
+        short = {"samples": args.samples, "ranks": args.ranks, "window": args.window, "window_m": args.window_m,
+                 "every": args.every, "full_map_every": args.map_every}
+        config = resolve_section(McnConfig, args, "mcn", file, short, defaults={"full_map_every": _RUN_MAP_EVERY})
+        recording = resolve_section(RecordingConfig, args, "recording", file)
+        model_name = args.model if args.model is not None else file.get("model", "unet-explore")
+        if not isinstance(model_name, str):
+            raise ConfigError(f"{args.config}: model: expected a name or a path, got {model_name!r}")
+        live = live_viewer(args, recording)
+    except (ConfigError, ViewerError) as err:
+        return fail("run", err)
+    model_path = [] if model_name in MODELS else [Path(model_name)]
     outputs = [Output(p, folder=p == args.out) for p in (args.rrd, args.out) if p is not None]
     check_outputs([args.log, *model_path], outputs, overwrite=args.overwrite)
     torch.set_num_threads(max(1, args.threads))
     try:
-        model = load_model(args.model)
+        model = load_model(model_name)
     except (CheckpointError, FileNotFoundError) as err:
         return fail("run", err)
-    try:
-        config = McnConfig(samples=args.samples, ranks=args.ranks, window=args.window, window_m=args.window_m,
-                           every=args.every, full_map_every=args.map_every if args.rrd is not None else 0)
-        slam_config, seed = resolve_slam_config(args)
-    except (ValueError, ConfigError) as err:
-        return fail("run", err)
-    mcn = McnSlam(slam_config, model, config, np.random.default_rng(seed),
+    info = {"command": "run", "log": str(args.log), "model": model_name, "samples": config.samples,
+            "ranks": config.ranks, "particles": slam_config.n_particles, "seed": seed, "window": config.window,
+            "threads": args.threads, "config": dataclasses.asdict(slam_config), "mcn": dataclasses.asdict(config),
+            "recording": dataclasses.asdict(recording)}
+    recorded = args.rrd is not None or live is not None
+    # the full map feeds only the recording (it changes no particle): not computed without one
+    stepped = config if recorded else dataclasses.replace(config, full_map_every=0)
+    mcn = McnSlam(slam_config, model, stepped, np.random.default_rng(seed),
                   generator=torch.Generator().manual_seed(seed))
+    logger = None
     with SIGNALS.deferred(), open_log(args.log) as log:
         count = next((t.count for t in getattr(log, "topics", []) if t.name == getattr(log, "scan_topic", None)),
                      None)
-        rec_id = f"mcn-{Path(args.log).stem}-{args.model if args.model in MODELS else 'custom'}-{seed}"
+        rec_id = f"mcn-{Path(args.log).stem}-{model_name if model_name in MODELS else 'custom'}-{seed}"
         summary, sinks = mcn_sinks(mcn, rrd=args.rrd, recording_id=rec_id, progress=not args.no_progress,
-                                   total=count)
+                                   total=count, live=live, config=info, flush_updates=recording.flush_updates,
+                                   keep_serving=True)
+        logger = recording_logger(sinks)
+        if logger is not None:
+            announce_live(logger)
         if args.out is not None:
-            info = {"log": str(args.log), "model": args.model, "samples": args.samples, "ranks": args.ranks,
-                    "particles": slam_config.n_particles, "seed": seed, "window": args.window,
-                    "config": dataclasses.asdict(slam_config)}
             sinks.append(McnOutputs(args.out, mcn, summary, info))
         outcome = drive(log.frames(), mcn, sinks, stop=SIGNALS.requested)
-    if summary.scans == 0:
-        return 0 if outcome.interrupted else fail("run", f"{args.log}: no scans")
-    share = summary.cpu_s_recording / max(summary.cpu_s, 1e-9)
-    stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
-    print(f"{summary.scans} scans{stopped}, {summary.filter_updates} filter updates, {summary.completions} completions "
-          f"(R={args.ranks} × K={args.samples}), mean sample diversity {summary.mean_diversity:.3f}; CPU "
-          f"{summary.cpu_s:.1f} s ({100 * share:.1f} % recording), wall {summary.wall_s:.1f} s")
-    if args.rrd is not None:
-        print(f"recording: {args.rrd} ({summary.rrd_bytes / 1e6:.1f} MB; {summary.rrd_bytes_written / 1e6:.1f} MB "
-              f"before compaction)    watch it: rerun {args.rrd}")
-    return 0
+    try:
+        if summary.scans == 0:
+            return 0 if outcome.interrupted else fail("run", f"{args.log}: no scans")
+        share = summary.cpu_s_recording / max(summary.cpu_s, 1e-9)
+        stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
+        print(f"{summary.scans} scans{stopped}, {summary.filter_updates} filter updates, {summary.completions} "
+              f"completions (R={config.ranks} × K={config.samples}), mean sample diversity "
+              f"{summary.mean_diversity:.3f}; CPU {summary.cpu_s:.1f} s ({100 * share:.1f} % recording), wall "
+              f"{summary.wall_s:.1f} s", flush=True)
+        if args.rrd is not None:
+            print(f"recording: {args.rrd} ({summary.rrd_bytes / 1e6:.1f} MB; {summary.rrd_bytes_written / 1e6:.1f} "
+                  f"MB before compaction)    watch it: rerun {args.rrd}", flush=True)
+        return 0
+    finally:
+        if logger is not None:  # --serve: on after a finished run (until Ctrl-C by default)
+            serve_on(logger, recording.linger_s if summary.scans else 0, SIGNALS)
 
 
 def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -143,33 +195,45 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
                        "last completion (completion.png) and summary.json.  An interrupted run (Ctrl-C, SIGTERM, a "
                        "damaged log) still closes the recording (rerun rrd verify passes) and writes --out with the "
                        "results so far (\"interrupted\": true in summary.json); exit code 130 / 143 for a signal.  "
-                       "Outputs never replace an input, and replace existing files only with --overwrite.")
+                       "Outputs never replace an input, and replace existing files only with --overwrite.  "
+                       "--connect streams every step live to a running Rerun viewer, --serve from a gRPC server of "
+                       "its own on 127.0.0.1 (both also beside --rrd).  Every SlamConfig, McnConfig and "
+                       "RecordingConfig field is a flag (--slam.FIELD, --mcn.FIELD, --recording.FIELD); summary.json "
+                       "and the recording (/config) hold the whole configuration, and --config OUT/summary.json "
+                       "re-runs it.")
     p.add_argument("log", type=Path, help="a log open_log reads (CARMEN, .bag, rosbag2 folder, .mcap)")
     p.add_argument("--rrd", type=Path, default=None, help="record every step to this Rerun file")
     p.add_argument("--out", type=Path, default=None,
                    help="also write trajectory.tum, map.pgm/.yaml/.png, completion.png, summary.json here")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--rrd, --out files)")
-    p.add_argument("--model", default="unet-explore",
+    p.add_argument("--model", default=None,
                    help=f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path "
-                        "(default unet-explore: the U-net trained on maps part-way through an exploration, which "
-                        "leaves the outside of a building occupied; unet is the paper's, trained on one-scan maps)")
-    p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")
-    p.add_argument("--ranks", type=int, default=3, help="R best particles completed (default 3)")
+                        "(default: the config file's, else unet-explore: the U-net trained on maps part-way through "
+                        "an exploration, which leaves the outside of a building occupied; unet is the paper's, "
+                        "trained on one-scan maps)")
     p.add_argument("--config", type=Path, default=None,
-                   help="SLAM settings file: TOML ([slam] table of SlamConfig fields, seed = N) or a run's "
-                        "summary.json; flags given here override it")
+                   help="settings file: TOML ([slam], [mcn] and [recording] tables, seed = N, model = NAME) or a "
+                        "run's summary.json (re-runs it); flags given here override it")
+    p.add_argument("--samples", type=int, default=None, help="K completions per particle (default 4; = --mcn.samples)")
+    p.add_argument("--ranks", type=int, default=None, help="R best particles completed (default 3; = --mcn.ranks)")
     p.add_argument("--particles", type=int, default=None, help="SLAM particles (default 30; = --slam.n-particles)")
     p.add_argument("--resolution", type=float, default=None,
                    help="map cell size in metres (default 0.05; = --slam.resolution-m)")
-    p.add_argument("--window", choices=["map", "robot"], default="map",
-                   help="network input: the whole map shrunk to 64x64 (paper) or a robot-centred square")
-    p.add_argument("--window-m", type=float, default=12.8, help="side of the robot-centred window (default 12.8 m)")
-    p.add_argument("--every", type=int, default=1, help="complete at every N-th filter update (default 1: each)")
-    p.add_argument("--map-every", type=int, default=5,
-                   help="with --rrd: record the best full-resolution map every N completions (default 5)")
+    p.add_argument("--window", choices=["map", "robot"], default=None,
+                   help="network input: the whole map shrunk to 64x64 (paper; the default) or a robot-centred square "
+                        "(= --mcn.window)")
+    p.add_argument("--window-m", type=float, default=None,
+                   help="side of the robot-centred window (default 12.8 m; = --mcn.window-m)")
+    p.add_argument("--every", type=int, default=None,
+                   help="complete at every N-th filter update (default 1: each; = --mcn.every)")
+    p.add_argument("--map-every", type=int, default=None,
+                   help=f"record the best full-resolution map every N completions (default {_RUN_MAP_EVERY}; "
+                        "= --mcn.full-map-every; not computed without a recording)")
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the filter and of the samples (default 0, or the config file's)")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_recording_flags(p)
     add_dataclass_flags(p, SlamConfig, "slam")
+    add_dataclass_flags(p, McnConfig, "mcn")
     p.set_defaults(func=cmd_run)

@@ -30,8 +30,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 if TYPE_CHECKING:
     from mcnkit.slam.config import SlamConfig
 
-__all__ = ["ConfigError", "add_dataclass_flags", "build_dataclass", "dataclass_overrides", "read_config_file",
-           "resolve_slam_config"]
+__all__ = ["ConfigError", "add_dataclass_flags", "build_dataclass", "config_file", "dataclass_overrides",
+           "read_config_file", "resolve_section", "resolve_seed", "resolve_slam_config"]
 
 T = TypeVar("T")
 
@@ -63,11 +63,20 @@ def _flag(field: str) -> str:
 
 
 def _kind(hint: Any) -> tuple[type, bool]:
-    """(the scalar type, whether None is allowed) of a field's type hint."""
+    """(the scalar type, whether None is allowed) of a field's type hint (a ``Literal`` of strings: ``str``)."""
+    if typing.get_origin(hint) is typing.Literal:
+        return str, False
     args = [a for a in typing.get_args(hint) if a is not type(None)]
     if args:
-        return args[0], len(args) < len(typing.get_args(hint))
+        return _kind(args[0])[0], len(args) < len(typing.get_args(hint))
     return hint, False
+
+
+def _choices(hint: Any) -> tuple[Any, ...] | None:
+    """The values a ``Literal[...]`` field allows (None for other fields)."""
+    if typing.get_origin(hint) is typing.Literal:
+        return typing.get_args(hint)
+    return None
 
 
 def _parser_of(kind: type, optional: bool) -> Any:
@@ -95,6 +104,9 @@ def add_dataclass_flags(parser: argparse.ArgumentParser, cls: type, section: str
         if kind is bool:
             group.add_argument(flag, dest=f"{section}.{f.name}", action=argparse.BooleanOptionalAction,
                                default=argparse.SUPPRESS, help=help_text)
+        elif (choices := _choices(hints[f.name])) is not None:
+            group.add_argument(flag, dest=f"{section}.{f.name}", choices=choices, default=argparse.SUPPRESS,
+                               help=help_text)
         else:
             group.add_argument(flag, dest=f"{section}.{f.name}", type=_parser_of(kind, optional),
                                default=argparse.SUPPRESS, metavar=kind.__name__.upper(), help=help_text)
@@ -125,7 +137,11 @@ def read_config_file(path: Path) -> dict[str, Any]:
 
 
 def _coerce(cls: type, name: str, value: Any) -> Any:
-    kind, optional = _kind(typing.get_type_hints(cls)[name])
+    hint = typing.get_type_hints(cls)[name]
+    choices = _choices(hint)
+    if choices is not None and value not in choices:
+        raise ConfigError(f"{name}: expected one of {', '.join(map(repr, choices))}, got {value!r}")
+    kind, optional = _kind(hint)
     if value is None and optional:
         return None
     if kind is float and isinstance(value, int) and not isinstance(value, bool):
@@ -150,23 +166,45 @@ def build_dataclass(cls: type[T], *layers: dict[str, Any]) -> T:
         raise ConfigError(f"{cls.__name__}: {err}") from err
 
 
-def resolve_slam_config(args: argparse.Namespace) -> tuple[SlamConfig, int]:
+def config_file(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``--config`` file as a dict (empty without ``--config``)."""
+    path = getattr(args, "config", None)
+    return read_config_file(path) if path is not None else {}
+
+
+def resolve_section(cls: type[T], args: argparse.Namespace, section: str, file: dict[str, Any],
+                    short: dict[str, Any] | None = None, *, file_keys: tuple[str, ...] = (),
+                    defaults: dict[str, Any] | None = None) -> T:
+    """One section of the run configuration: ``cls``'s defaults (a command's own ``defaults`` over them), then the
+    file's table (the first of ``section``, ``*file_keys`` it has), then the short flags ``short`` (None values:
+    not given), then ``--SECTION.FIELD``."""
+    key = next((k for k in (section, *file_keys) if k in file), None)
+    table = file.get(key, {}) if key is not None else {}
+    where = getattr(args, "config", None)
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where}: '{key}' is not a table of settings")
+    try:
+        build_dataclass(cls, table)
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from err
+    given = {k: v for k, v in (short or {}).items() if v is not None}
+    return build_dataclass(cls, defaults or {}, table, given, dataclass_overrides(args, section))
+
+
+def resolve_seed(args: argparse.Namespace, file: dict[str, Any]) -> int:
+    """``--seed``, else the file's ``seed``, else 0."""
+    seed = args.seed if getattr(args, "seed", None) is not None else file.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool):
+        raise ConfigError(f"{getattr(args, 'config', None)}: seed: expected an integer, got {seed!r}")
+    return seed
+
+
+def resolve_slam_config(args: argparse.Namespace, file: dict[str, Any] | None = None) -> tuple[SlamConfig, int]:
     """The filter's settings and the seed: defaults, then ``--config`` (its ``slam`` table, or the ``config`` of a
     ``summary.json``), then ``--particles`` / ``--resolution``, then ``--slam.FIELD`` flags."""
     from mcnkit.slam.config import SlamConfig
 
-    file: dict[str, Any] = read_config_file(args.config) if getattr(args, "config", None) is not None else {}
-    table = file.get("slam", file.get("config", {}))
-    if not isinstance(table, dict):
-        raise ConfigError(f"{args.config}: 'slam' is not a table of settings")
-    try:
-        build_dataclass(SlamConfig, table)
-    except ConfigError as err:
-        raise ConfigError(f"{args.config}: {err}") from err
-    short = {k: v for k, v in (("n_particles", getattr(args, "particles", None)),
-                               ("resolution_m", getattr(args, "resolution", None))) if v is not None}
-    config = build_dataclass(SlamConfig, table, short, dataclass_overrides(args, "slam"))
-    seed = args.seed if args.seed is not None else file.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool):
-        raise ConfigError(f"{args.config}: seed: expected an integer, got {seed!r}")
-    return config, seed
+    file = config_file(args) if file is None else file
+    short = {"n_particles": getattr(args, "particles", None), "resolution_m": getattr(args, "resolution", None)}
+    config = resolve_section(SlamConfig, args, "slam", file, short, file_keys=("config",))
+    return config, resolve_seed(args, file)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mcnkit.drive import DriveStep, Outcome
+from mcnkit.drive import DriveStep, Outcome, Signals
 from mcnkit.outputs import staged_folder
 
 if TYPE_CHECKING:
@@ -25,7 +25,8 @@ if TYPE_CHECKING:
     from mcnkit.slam.fastslam import FastSlam
     from mcnkit.viz import RerunLogger
 
-__all__ = ["McnOutputs", "McnStats", "RecordingSink", "RunSummary", "SlamOutputs", "peak_rss_mb"]
+__all__ = ["McnOutputs", "McnStats", "RecordingSink", "RunSummary", "SlamOutputs", "announce_live", "peak_rss_mb",
+           "serve_on"]
 
 
 def peak_rss_mb() -> float:
@@ -103,10 +104,11 @@ class RecordingSink:
     """
 
     def __init__(self, logger: RerunLogger, slam: FastSlam, *, map_every: int = 10, trajectory: str = "updates",
-                 optimize: bool = False, summary: RunSummary | None = None) -> None:
+                 optimize: bool = False, summary: RunSummary | None = None, keep_serving: bool = False) -> None:
         self.logger, self.slam = logger, slam
         self.map_every, self.trajectory, self.optimize = map_every, trajectory, optimize
         self.summary = summary
+        self.keep_serving = keep_serving
         self.cpu_s = 0.0
         self.bytes_written = self.bytes = 0
 
@@ -128,17 +130,46 @@ class RecordingSink:
         self.cpu_s += time.process_time() - t0
 
     def close(self, outcome: Outcome) -> None:
-        """Finalises the file (footer written, renamed into place) and compacts a finished one."""
-        self.logger.close()
+        """Finalises the file (footer written, renamed into place) and compacts a finished one; ends the live
+        streams, except a served one after a finished run with ``keep_serving`` (see :func:`serve_on`)."""
+        self.logger.close(keep_serving=self.keep_serving and not outcome.interrupted)
         path = self.logger.path
-        self.bytes_written = self.bytes = path.stat().st_size if path.is_file() else 0
-        if self.optimize and not outcome.interrupted and path.is_file():
+        self.bytes_written = self.bytes = path.stat().st_size if path is not None and path.is_file() else 0
+        if self.optimize and not outcome.interrupted and path is not None and path.is_file():
             from mcnkit.viz import optimize_recording
 
             self.bytes_written, self.bytes = optimize_recording(path)
         if self.summary is not None:
             self.summary.cpu_s_recording = self.cpu_s
             self.summary.rrd_bytes_written, self.summary.rrd_bytes = self.bytes_written, self.bytes
+
+
+def announce_live(logger: RerunLogger) -> None:
+    """Prints where the run streams live (the addresses to open), when it does."""
+    live = logger.live
+    if live is None:
+        return
+    if live.connect is not None:
+        print(f"streaming live to the viewer at {live.connect}", flush=True)
+    if live.serve_url is not None:
+        print(f"serving live at {live.serve_url}    watch it: rerun --connect {live.serve_url}", flush=True)
+    if live.web_url is not None:
+        print(f"web viewer: {live.web_url}", flush=True)
+
+
+def serve_on(logger: RerunLogger, linger_s: float, signals: Signals | None) -> None:
+    """After a run: keeps the run's own server (``--serve``) up for ``linger_s`` seconds (< 0: until SIGINT or
+    SIGTERM, which then end only the serving), then shuts it down.  Nothing to do when it is not serving."""
+    if not logger.serving:
+        return
+    try:
+        if linger_s != 0 and signals is not None:
+            until = "Ctrl-C" if linger_s < 0 else f"{linger_s:g} s or Ctrl-C"
+            print(f"the run is over; still serving {logger.live.serve_url if logger.live else ''} until {until}",
+                  flush=True)
+            signals.wait(linger_s)
+    finally:
+        logger.stop_serving()
 
 
 class SlamOutputs:

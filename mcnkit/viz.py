@@ -24,16 +24,21 @@ Entities:
 | ``/world/mcn/rank{r}/particle`` | that particle's pose |
 | ``/metrics/f_slam``, ``/metrics/f_completed``, ``/metrics/miou_unknown``, ``/metrics/sample_diversity`` | scalars |
 | ``/log`` | filter updates and resampling events (TextLog) |
+| ``/config`` | the run's whole configuration, JSON (TextDocument, static) |
 
-The logger is a context manager: leaving it, normally or by an exception (Ctrl-C included), flushes and
+Besides the file, a run can stream live to a running viewer or to a gRPC server of its own on 127.0.0.1 (see
+:mod:`mcnkit.recording`).  The logger is a context manager: leaving it, normally or by an exception (Ctrl-C included), flushes and
 finalises the file, so an interrupted run still leaves a readable recording.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
+import subprocess
 import uuid
+import warnings
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
@@ -50,6 +55,7 @@ from mcnkit.types import Frame, TernaryMap
 
 if TYPE_CHECKING:
     from mcnkit.mcn import StepResult
+    from mcnkit.recording import LiveViewer
 
 __all__ = ["APPLICATION_ID", "RerunLogger", "mcn_blueprint", "optimize_recording", "recording_blueprint", "recording_viewer",
            "slam_blueprint"]
@@ -67,7 +73,8 @@ def slam_blueprint() -> rrb.Blueprint:
             rrb.Vertical(
                 rrb.TimeSeriesView(name="metrics", origin="/metrics"),
                 rrb.Tabs(rrb.Spatial2DView(name="ground truth", origin="/", contents=["+ /world/map/gt/**"]),
-                         rrb.TextLogView(name="events", origin="/log")),
+                         rrb.TextLogView(name="events", origin="/log"),
+                         rrb.TextDocumentView(name="config", origin="/config")),
                 row_shares=[1, 2],
             ),
             column_shares=[3, 2],
@@ -114,7 +121,8 @@ def mcn_blueprint(ranks: int, samples: int) -> rrb.Blueprint:
             rrb.Vertical(
                 *rows,
                 rrb.Tabs(rrb.Spatial2DView(name="ground truth", origin="/", contents=["+ /world/map/gt/**"]),
-                         rrb.TextLogView(name="events", origin="/log")),
+                         rrb.TextLogView(name="events", origin="/log"),
+                         rrb.TextDocumentView(name="config", origin="/config")),
             ),
             column_shares=[2, 3],
         ),
@@ -188,17 +196,38 @@ def _weight_colors(w: NDArray[np.float64]) -> NDArray[np.uint8]:
 
 
 class _Tee:
-    """One recording, sent to the ``.rrd`` file and, optionally, to a live notebook viewer.
+    """One recording, sent to the ``.rrd`` file and, optionally, to live viewers (gRPC, a notebook).
 
-    A notebook viewer takes over the sinks of the stream it is attached to, so it gets a second stream with
-    the same application and recording ids; every call is made on both.
+    Every destination has its own stream with the same application and recording ids, and every call is made on
+    each: a notebook viewer takes over the sinks of its stream, the file is finalised when the run ends while a
+    served stream may go on serving, and a viewer that goes away cannot hold up the file.
     """
 
     def __init__(self, application_id: str, recording_id: str) -> None:
-        self.file = rr.RecordingStream(application_id, recording_id=recording_id)
-        self.file.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
-        self.streams = [self.file]
+        self.streams: list[rr.RecordingStream] = []
+        self.file: rr.RecordingStream | None = None
+        self.served: rr.RecordingStream | None = None
         self._ids = (application_id, recording_id)
+
+    def _stream(self) -> rr.RecordingStream:
+        stream = rr.RecordingStream(self._ids[0], recording_id=self._ids[1])
+        stream.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
+        self.streams.append(stream)
+        return stream
+
+    def attach_file(self, path: Path, blueprint: rrb.Blueprint) -> None:
+        self.file = self._stream()
+        self.file.save(str(path), default_blueprint=blueprint)
+
+    def attach_grpc(self, live: LiveViewer, blueprint: rrb.Blueprint) -> None:
+        """A stream to a running viewer (``live.connect``) and one to a server hosted on 127.0.0.1."""
+        if live.connect is not None:
+            self._stream().set_sinks(rr.GrpcSink(live.connect), default_blueprint=blueprint)
+        if live.serve_port is not None:
+            self.served = self._stream()
+            server = rr.GrpcServerSink(bind_ip="127.0.0.1", port=live.serve_port,
+                                       server_memory_limit=live.server_memory_limit)
+            self.served.set_sinks(server, default_blueprint=blueprint)
 
     def attach_notebook_viewer(self, blueprint: rrb.Blueprint, size: tuple[int, int]) -> Any:
         import os
@@ -206,11 +235,9 @@ class _Tee:
         os.environ.setdefault("RERUN_NOTEBOOK_ASSET", "serve-local")  # offline: the kernel serves the viewer
         import rerun.notebook
 
-        live = rr.RecordingStream(self._ids[0], recording_id=self._ids[1])
-        live.set_log_time_enabled(False)
+        live = self._stream()
         viewer = rerun.notebook.Viewer(recording=live, width=size[0], height=size[1], blueprint=blueprint)
         viewer.update_panels(blueprint="hidden", selection="hidden")  # room for the views; the time panel stays
-        self.streams.append(live)
         return viewer
 
     def log(self, *args: Any, **kwargs: Any) -> None:
@@ -221,17 +248,30 @@ class _Tee:
         for s in self.streams:
             s.set_time(*args, **kwargs)
 
-    def send_columns(self, *args: Any, **kwargs: Any) -> None:
+    def send_columns(self, *args: Any, live: bool | None = None, **kwargs: Any) -> None:
+        """To every stream (``live=None``), the live ones only (True) or the file only (False)."""
         for s in self.streams:
-            s.send_columns(*args, **kwargs)
+            if live is None or live == (s is not self.file):
+                s.send_columns(*args, **kwargs)
 
     def flush(self) -> None:
         for s in self.streams:
             s.flush()
 
-    def disconnect(self) -> None:
-        for s in self.streams:
+    def close(self, keep_serving: bool) -> None:
+        """Flushes and disconnects every stream (the file last but one: finalised with its footer) except, with
+        ``keep_serving``, the served one.  The file goes first; a live viewer that went away is reported, not
+        raised."""
+        for s in sorted(self.streams, key=lambda s: s is not self.file):  # the file first: it never waits on a viewer
+            if s is self.served and keep_serving:
+                continue
+            if s is not self.file:
+                try:
+                    s.flush(timeout_sec=2.0)
+                except RuntimeError as err:  # gRPC could not deliver: the viewer is gone
+                    warnings.warn(f"live viewer: {str(err).splitlines()[0]}", stacklevel=2)
             s.disconnect()
+        self.streams = [self.served] if keep_serving and self.served is not None else []
 
 
 def _columns(kind: str, values: list[Any]) -> Any:
@@ -266,22 +306,46 @@ def _columns(kind: str, values: list[Any]) -> Any:
     return rr.Scalars.columns(scalars=np.asarray(values, np.float64))
 
 
+def _serve_web_viewer(port: int, grpc_url: str) -> subprocess.Popen[bytes]:
+    """Rerun's web viewer on 127.0.0.1:``port``, connecting to ``grpc_url`` (the rerun binary itself, not the
+    Python shim, so that ending this process ends the server; ``rr.serve_web_viewer`` binds every interface)."""
+    import rerun_cli
+
+    binary = Path(rerun_cli.__file__).parent / "rerun"
+    return subprocess.Popen([str(binary), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", str(port),
+                             grpc_url], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, env={**os.environ, "RERUN_ANALYTICS": "0"})
+
+
 class RerunLogger:
     """Writes one run to ``path`` (``.rrd``: written as ``path.partial`` and renamed when closed, unless
-    ``atomic=False``) and, with ``notebook_viewer=True``, streams it to ``.viewer``
-    (a ``rerun.notebook.Viewer``: show it with ``logger.viewer.display()``)."""
+    ``atomic=False``; None: no file), streams it live to ``live`` (a running viewer and/or a gRPC server hosted on
+    127.0.0.1, see :mod:`mcnkit.recording`) and, with ``notebook_viewer=True``, to ``.viewer`` (a
+    ``rerun.notebook.Viewer``: show it with ``logger.viewer.display()``).
 
-    def __init__(self, path: str | Path, recording_id: str | None = None,
+    ``config``, when given, is the run's whole configuration: logged as a JSON text document at ``/config``
+    (static), so that the recording says how it was made."""
+
+    def __init__(self, path: str | Path | None, recording_id: str | None = None,
                  blueprint: rrb.Blueprint | None = None, *, notebook_viewer: bool = False,
-                 viewer_size: tuple[int, int] = (1000, 520), flush_updates: int = 50, atomic: bool = True) -> None:
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+                 viewer_size: tuple[int, int] = (1000, 520), flush_updates: int = 50, atomic: bool = True,
+                 live: LiveViewer | None = None, config: dict[str, Any] | None = None) -> None:
+        self.path = Path(path) if path is not None else None
         recording_id = recording_id or str(uuid.uuid4())
         blueprint = blueprint or slam_blueprint()
         self.rec = _Tee(APPLICATION_ID, recording_id)
-        # renamed to ``path`` once finalised (see close); atomic=False writes ``path`` itself as it grows
-        self._partial = partial_path(self.path) if atomic else self.path
-        self.rec.file.save(str(self._partial), default_blueprint=blueprint)
+        self.live = live
+        self._web: subprocess.Popen[bytes] | None = None
+        self._partial: Path | None = None
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            # renamed to ``path`` once finalised (see close); atomic=False writes ``path`` itself as it grows
+            self._partial = partial_path(self.path) if atomic else self.path
+            self.rec.attach_file(self._partial, blueprint)
+        if live is not None:
+            self.rec.attach_grpc(live, blueprint)
+            if live.web_port is not None and live.serve_url is not None:
+                self._web = _serve_web_viewer(live.web_port, live.serve_url)
         self.viewer = self.rec.attach_notebook_viewer(blueprint, viewer_size) if notebook_viewer else None
         self.rec.log("/", rr.AnnotationContext([rr.AnnotationInfo(id=i, label=n, color=c) for i, n, c in _CLASSES]),
                      static=True)
@@ -289,12 +353,26 @@ class RerunLogger:
         self.rec.log("/world/map/unknown_mask", rr.AnnotationContext([
             rr.AnnotationInfo(id=0, label="known", color=(0, 0, 0, 0)),
             rr.AnnotationInfo(id=1, label="unknown", color=(255, 0, 255, 90))]), static=True)
+        if config is not None:
+            self.log_config(config)
         self._odom_path: list[NDArray[np.float64]] = []
         self._updates = 0
         self._paths_logged_at = 0
         self.flush_updates = flush_updates
         self._queued: dict[str, tuple[str, list[int], list[int], list[Any]]] = {}  # entity -> kind, rows
+        self._live_sent: dict[str, int] = {}  # entity -> its queued rows already sent to the live streams
         self._closed = False
+
+    @property
+    def serving(self) -> bool:
+        """True while the run's own gRPC server (``live.serve_port``) is up, also after :meth:`close`."""
+        return self.rec.served is not None
+
+    def log_config(self, config: dict[str, Any]) -> None:
+        """The run's configuration as a JSON document at ``/config`` (static), shown in the blueprints' config
+        tab."""
+        text = json.dumps(config, indent=2, default=str)
+        self.rec.log("/config", rr.TextDocument(text, media_type=rr.MediaType.TEXT), static=True)
 
     def seek(self, step: int) -> None:
         """Moves the embedded viewer's time cursor to ``step`` (no-op without a viewer)."""
@@ -376,16 +454,27 @@ class RerunLogger:
         queue[2].append(stamp_ns)
         queue[3].append(value)
 
-    def _flush(self) -> None:
-        """Sends every queued entity as one column chunk (``send_columns``)."""
+    def _flush(self, *, live_only: bool = False) -> None:
+        """Sends every queued entity as one column chunk (``send_columns``): the rows not sent yet to the live
+        streams, and, unless ``live_only``, all of them to the file (which keeps its own, larger batches)."""
         for entity, (kind, steps, stamps, values) in self._queued.items():
-            if steps:
-                index = [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
-                         rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
-                self.rec.send_columns(entity, index, _columns(kind, values))
+            sent = self._live_sent.get(entity, 0)
+            if len(steps) > sent and len(self.rec.streams) > (self.rec.file is not None):
+                self.rec.send_columns(entity, self._index(steps[sent:], stamps[sent:]), _columns(kind, values[sent:]),
+                                      live=True)
+                self._live_sent[entity] = len(steps)
+            if steps and not live_only:
+                if self.rec.file is not None:
+                    self.rec.send_columns(entity, self._index(steps, stamps), _columns(kind, values), live=False)
                 steps.clear()
                 stamps.clear()
                 values.clear()
+                self._live_sent[entity] = 0
+
+    @staticmethod
+    def _index(steps: list[int], stamps: list[int]) -> list[Any]:
+        return [rr.TimeColumn("step", sequence=np.asarray(steps, np.int64)),
+                rr.TimeColumn("stamp", timestamp=np.asarray(stamps, np.int64).astype("datetime64[ns]"))]
 
     def log_ground_truth(self, ternary: TernaryMap) -> None:
         """The ground-truth map (static: the same at every step)."""
@@ -396,7 +485,7 @@ class RerunLogger:
 
         Per-scan and per-completion entities are queued and sent as columns (``send_columns``) every
         ``flush_updates`` filter updates and on :meth:`close`, which costs a fraction of one ``log`` call per row;
-        with a live notebook viewer every step is sent at once.
+        with a live notebook viewer every step is sent at once, with a gRPC viewer (``live``) every filter update.
         """
         w = np.asarray(step.weights, dtype=np.float64)
         pose = np.asarray(step.best_pose, dtype=np.float64)
@@ -413,8 +502,12 @@ class RerunLogger:
         self._odom_path.append(frame.odom.as_array()[:2])
         if step.updated:  # row-by-row logs below (and log_mcn_step's) happen at filter updates only
             self._updates += 1
+        # a notebook viewer gets every scan at once (and so does the file then, which the notebook's player reads
+        # as it grows), a gRPC viewer every filter update, the file otherwise every flush_updates updates
         if self.viewer is not None or (step.updated and self._updates % self.flush_updates == 0):
             self._flush()
+        elif step.updated and self.live is not None:
+            self._flush(live_only=True)
         if step.updated:
             self.set_time(step.index, step.stamp_ns)
             # whole paths, re-sent every max(1, updates/50) updates: a growing path without quadratic file size
@@ -429,15 +522,32 @@ class RerunLogger:
             what = "filter update, particles resampled" if step.resampled else "filter update"
             self._queue("/log", "text", step.index, step.stamp_ns, f"scan {step.index}: {what} (N_eff {step.neff:.1f})")
 
-    def close(self) -> None:
-        """Sends what is buffered, flushes and finalises the file (idempotent)."""
+    def close(self, *, keep_serving: bool = False) -> None:
+        """Sends what is buffered, flushes and finalises the file, ends the connection to a running viewer and,
+        unless ``keep_serving``, the run's own server (idempotent; see :meth:`stop_serving`)."""
         if not self._closed:
             self._closed = True
             self._flush()
-            self.rec.flush()
-            self.rec.disconnect()
-            if self._partial != self.path and self._partial.is_file():
-                os.replace(self._partial, self.path)
+            self.rec.close(keep_serving)
+            if self._partial is not None and self._partial != self.path and self._partial.is_file():
+                os.replace(self._partial, self.path)  # type: ignore[arg-type]
+        if not keep_serving:
+            self.stop_serving()
+
+    def stop_serving(self) -> None:
+        """Shuts down the run's gRPC server and web viewer, if any (idempotent)."""
+        served = self.rec.served
+        if served is not None:
+            self.rec.served = None
+            self.rec.streams = [s for s in self.rec.streams if s is not served]
+            served.disconnect()
+        if self._web is not None:
+            self._web.terminate()
+            try:
+                self._web.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self._web.kill()
+            self._web = None
 
     def __enter__(self) -> RerunLogger:
         return self

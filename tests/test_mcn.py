@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import json
 import subprocess
 import sys
@@ -211,14 +213,57 @@ def test_mcnkit_run_refuses_a_checkpoint_that_is_not_one(tmp_path: Path, sim_run
     assert code == 2 and len(err) == 1 and "net" in err[0]
 
 
-def test_mcnkit_run_takes_slam_flags_and_reruns_from_its_summary(tmp_path: Path, sim_run: SimResult) -> None:
+def test_mcnkit_run_takes_slam_and_mcn_flags_and_reruns_from_its_summary(tmp_path: Path, sim_run: SimResult) -> None:
     log = write_sim_log(sim_run, tmp_path / "apartment.mcap", "mcap")
-    base = ["run", str(log), "--samples", "2", "--ranks", "1", "--no-progress"]
-    assert main([*base, "--slam.n-particles", "5", "--slam.linear-update-m", "0.5", "--seed", "2",
-                 "--out", str(tmp_path / "first")]) == 0
+    toml = tmp_path / "run.toml"
+    toml.write_text("seed = 2\nmodel = 'unet'\n[mcn]\nsamples = 3\nranks = 1\ncompletion_weight = 0.5\n"
+                    "[recording]\nflush_updates = 7\n")
+    assert main(["run", str(log), "--config", str(toml), "--samples", "2", "--slam.n-particles", "5",
+                 "--slam.linear-update-m", "0.5", "--mcn.every", "2", "--mcn.window", "robot", "--no-progress",
+                 "--out", str(tmp_path / "first"), "--rrd", str(tmp_path / "first.rrd")]) == 0
     summary = json.loads((tmp_path / "first" / "summary.json").read_text())
     assert summary["config"]["n_particles"] == 5 and summary["config"]["linear_update_m"] == 0.5
-    assert summary["seed"] == 2 and summary["interrupted"] is False
-    assert main([*base, "--config", str(tmp_path / "first" / "summary.json"), "--out", str(tmp_path / "again")]) == 0
-    first, again = ((tmp_path / d / "trajectory.tum").read_bytes() for d in ("first", "again"))
-    assert first == again
+    assert summary["seed"] == 2 and summary["interrupted"] is False and summary["model"] == "unet"
+    mcn = summary["mcn"]  # file, then short flags, then --mcn.FIELD; run's own default for the map
+    assert (mcn["samples"], mcn["ranks"], mcn["every"], mcn["window"], mcn["completion_weight"]) == (2, 1, 2, "robot", 0.5)
+    assert mcn["full_map_every"] == 5 and len(mcn) == len(dataclasses.fields(McnConfig))
+    assert summary["recording"]["flush_updates"] == 7
+    table = RrdReader(tmp_path / "first.rrd").stream().collect().reader(index=None, contents="/config").to_arrow_table()
+    document = json.loads(table.column("/config:TextDocument:text")[0].as_py()[0])
+    assert {k: document[k] for k in ("config", "mcn", "recording", "model", "seed")} == \
+        {k: summary[k] for k in ("config", "mcn", "recording", "model", "seed")}
+    # the summary alone repeats the run: same settings, same model, same seed, same trajectory
+    assert main(["run", str(log), "--config", str(tmp_path / "first" / "summary.json"), "--no-progress",
+                 "--out", str(tmp_path / "again")]) == 0
+    again = json.loads((tmp_path / "again" / "summary.json").read_text())
+    assert (again["mcn"], again["config"], again["model"]) == (mcn, summary["config"], "unet")
+    assert again["completions"] == summary["completions"]
+    first_tum, again_tum = ((tmp_path / d / "trajectory.tum").read_bytes() for d in ("first", "again"))
+    assert first_tum == again_tum
+    other = tmp_path / "other"  # the MCN settings matter (completion weighting moves the particles)
+    assert main(["run", str(log), "--config", str(tmp_path / "first" / "summary.json"), "--mcn.completion-weight",
+                 "0", "--no-progress", "--out", str(other)]) == 0
+    assert (other / "trajectory.tum").read_bytes() != first_tum
+
+
+def test_every_mcn_and_recording_field_has_a_flag_and_bad_values_are_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from mcnkit.cli import build_parser
+    from mcnkit.recording import RecordingConfig
+
+    parser = build_parser("run")
+    run = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["run"]
+    options = {a.dest: a for a in run._actions}
+    for section, cls in (("mcn", McnConfig), ("recording", RecordingConfig)):
+        for f in dataclasses.fields(cls):
+            action = options[f"{section}.{f.name}"]
+            assert f"--{section}.{f.name.replace('_', '-')}" in action.option_strings
+            assert action.help and "(default" in action.help
+    assert options["mcn.window"].choices == ("map", "robot")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[mcn]\nwindow = 'room'\n")
+    assert main(["run", "x.mcap", "--config", str(bad), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"mcnkit run: {bad}: window: expected one of 'map', 'robot', got 'room'", err
+    assert main(["run", "x.mcap", "--mcn.samples", "0", "--no-progress"]) == 2
+    assert capsys.readouterr().err.startswith("mcnkit run: McnConfig: invalid MCN config")

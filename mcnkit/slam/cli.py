@@ -14,7 +14,8 @@ Outputs of ``mcnkit slam LOG --out DIR``:
 * offline refinements of the same run: ``trajectory_matched.tum`` (every scan matched against the best
   particle's final map, ``mode="matched"`` of :meth:`mcnkit.slam.FastSlam.trajectory`: a smoother that uses
   later information) and ``trajectory_smoothed.tum`` (each correction spread over the interval before it);
-* ``run.rrd`` with ``--rrd``: every step recorded for Rerun (see :mod:`mcnkit.viz`);
+* ``run.rrd`` with ``--rrd``: every step recorded for Rerun (see :mod:`mcnkit.viz`), the configuration at
+  ``/config``; ``--connect [URL]`` / ``--serve`` stream the same live (see :mod:`mcnkit.recording`);
 * ``map.pgm`` + ``map.yaml`` (ROS ``map_server``: occupied 0, free 254, unknown 205), ``map.png``;
 * ``summary.json``: scans, filter updates, resamplings, cpu_s, wall_s, peak_rss_mb, final Neff, ...
 """
@@ -26,6 +27,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+from mcnkit.recording import add_recording_flags
 from mcnkit.runconfig import add_dataclass_flags, resolve_slam_config
 from mcnkit.slam.config import SlamConfig
 
@@ -42,10 +44,14 @@ _DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robo
   map.pgm, map.yaml         the best particle's map (ROS map_server: occupied 0, free 254, unknown 205), map.png
   summary.json              scans, filter updates, resamplings, CPU and wall time, peak memory, the configuration
 
-With --rrd every step is also recorded for Rerun.  Score a trajectory with 'mcnkit eval'.
+With --rrd every step is also recorded for Rerun; --connect streams it live to a running viewer (start one
+with 'rerun'), --serve from a gRPC server of its own on 127.0.0.1 (it prints the address; --recording.web-viewer
+also serves a web viewer), both also beside --rrd.  The recording holds the whole configuration (/config).
+Score a trajectory with 'mcnkit eval'.
 
-Settings: every SlamConfig field is a --slam.FIELD flag (below); --config FILE reads them from a TOML file
-([slam] table, seed = N) or from a run's summary.json, which holds the full configuration, so
+Settings: every SlamConfig field is a --slam.FIELD flag, every RecordingConfig field a --recording.FIELD
+flag (below); --config FILE reads them from a TOML file ([slam] and [recording] tables, seed = N) or from a
+run's summary.json, which holds the full configuration, so
 'mcnkit slam LOG --config OLD/summary.json --out NEW' repeats a run exactly.
 
 Ctrl-C or SIGTERM stops after the scan at hand: --out and --rrd get the results so far (summary.json says
@@ -75,8 +81,10 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--out files, --rrd)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--rrd", type=Path, help="record every step to this Rerun file (.rrd)")
-    p.add_argument("--rrd-map-every", type=int, default=10,
-                   help="with --rrd: log the best particle's map every N filter updates (default 10)")
+    p.add_argument("--rrd-map-every", type=int, default=None,
+                   help="record the best particle's map every N filter updates (default 10; "
+                        "= --recording.map-every)")
+    add_recording_flags(p)
     add_dataclass_flags(p, SlamConfig, "slam")
     p.set_defaults(func=run_slam)
     return p
@@ -99,43 +107,56 @@ def run_slam(args: argparse.Namespace) -> int:
     from mcnkit.io import open_log
     from mcnkit.io.errors import LogError
     from mcnkit.outputs import Output, OutputError, check_outputs
-    from mcnkit.runconfig import ConfigError
-    from mcnkit.sinks import RecordingSink, SlamOutputs
+    from mcnkit.recording import RecordingConfig, ViewerError, live_viewer
+    from mcnkit.runconfig import ConfigError, config_file, resolve_section
+    from mcnkit.sinks import RecordingSink, SlamOutputs, announce_live, serve_on
     from mcnkit.slam.fastslam import FastSlam
 
     try:
-        config, seed = resolve_slam_config(args)
-    except ConfigError as err:
+        file = config_file(args)
+        config, seed = resolve_slam_config(args, file)
+        recording = resolve_section(RecordingConfig, args, "recording", file, {"map_every": args.rrd_map_every})
+        live = live_viewer(args, recording)
+    except (ConfigError, ViewerError) as err:
         return fail("slam", err)
     rrd: Path | None = getattr(args, "rrd", None)
-    info = {"log": str(args.log), "particles": config.n_particles, "resolution_m": config.resolution_m,
-            "seed": seed, "config": dataclasses.asdict(config)}
+    info = {"command": "slam", "log": str(args.log), "particles": config.n_particles,
+            "resolution_m": config.resolution_m, "seed": seed, "config": dataclasses.asdict(config),
+            "recording": dataclasses.asdict(recording)}
     slam = FastSlam(config, np.random.default_rng(seed))
     outputs = SlamOutputs(args.out, slam, info)
+    logger = None
     try:
         check_outputs([args.log], [Output(args.out, folder=True), *([Output(rrd)] if rrd is not None else [])],
                       overwrite=getattr(args, "overwrite", False))
         with SIGNALS.deferred(), open_log(args.log) as reader:
             sinks: list[Sink] = [ProgressSink(_scan_count(reader), enabled=not args.no_progress)]
-            if rrd is not None:
+            if rrd is not None or live is not None:
                 from mcnkit.viz import RerunLogger  # rerun only when asked for
 
-                logger = RerunLogger(rrd, recording_id=f"slam-{Path(args.log).stem}-{seed}")
-                sinks.append(RecordingSink(logger, slam, map_every=args.rrd_map_every, trajectory="tracked"))
+                logger = RerunLogger(rrd, recording_id=f"slam-{Path(args.log).stem}-{seed}", live=live, config=info,
+                                     flush_updates=recording.flush_updates)
+                announce_live(logger)
+                sinks.append(RecordingSink(logger, slam, map_every=recording.map_every, trajectory="tracked",
+                                           keep_serving=True))
             outcome = drive(reader.frames(), slam, [*sinks, outputs], stop=SIGNALS.requested)
     except (LogError, OutputError) as err:
         return fail("slam", err)
     except OSError as err:
         return fail("slam", f"{err.filename}: {err.strerror}" if err.filename else err)
-    if outputs.summary is None:
-        if outcome.interrupted:
-            return 0  # stopped before the first scan: main() reports the signal
-        return fail("slam", f"{args.log}: no scans")
-    summary = outputs.summary
-    stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
-    print(
-        f"{slam.n_scans} scans{stopped}, {slam.n_updates} filter updates, {slam.n_resamples} resamplings, "
-        f"CPU {summary['cpu_s']:.1f} s, wall {summary['wall_s']:.1f} s, peak RSS {summary['peak_rss_mb']:.0f} MB"
-        f" -> {args.out}"
-    )
-    return 0
+    try:
+        if outputs.summary is None:
+            if outcome.interrupted:
+                return 0  # stopped before the first scan: main() reports the signal
+            return fail("slam", f"{args.log}: no scans")
+        summary = outputs.summary
+        stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
+        print(
+            f"{slam.n_scans} scans{stopped}, {slam.n_updates} filter updates, {slam.n_resamples} resamplings, "
+            f"CPU {summary['cpu_s']:.1f} s, wall {summary['wall_s']:.1f} s, peak RSS {summary['peak_rss_mb']:.0f} MB"
+            f" -> {args.out}", flush=True
+        )
+        return 0
+    finally:
+        if logger is not None:  # --serve: on after a finished run (until Ctrl-C by default)
+            serve_on(logger, recording.linger_s if outputs.summary is not None else 0, SIGNALS)

@@ -119,7 +119,8 @@ def test_config_file_flags_and_rerun_from_summary_reproduce_the_trajectory(
     log = tmp_path / "corridor.clf"
     _write_clf(log)
     toml = tmp_path / "run.toml"
-    toml.write_text("seed = 3\n[slam]\nn_particles = 6\nlinear_update_m = 0.3\nloop_closure = false\n")
+    toml.write_text("seed = 3\n[slam]\nn_particles = 6\nlinear_update_m = 0.3\nloop_closure = false\n"
+                    "[recording]\nmap_every = 3\nflush_updates = 4\n")
     first = tmp_path / "first"
     assert _run(["slam", str(log), "--config", str(toml), "--slam.n-particles", "5", "--slam.srr", "0.2",
                  "--out", str(first), "--no-progress"]) == 0
@@ -131,7 +132,9 @@ def test_config_file_flags_and_rerun_from_summary_reproduce_the_trajectory(
     again = tmp_path / "again"
     assert _run(["slam", str(log), "--config", str(first / "summary.json"), "--out", str(again), "--no-progress"]) == 0
     assert (again / "trajectory.tum").read_bytes() == (first / "trajectory.tum").read_bytes()
+    assert summary["recording"]["map_every"] == 3 and summary["recording"]["flush_updates"] == 4
     assert json.loads((again / "summary.json").read_text())["config"] == cfg
+    assert json.loads((again / "summary.json").read_text())["recording"] == summary["recording"]
     other = tmp_path / "other"  # the settings matter: the defaults give another trajectory
     assert _run(["slam", str(log), "--out", str(other), "--no-progress"]) == 0
     assert (other / "trajectory.tum").read_bytes() != (first / "trajectory.tum").read_bytes()
