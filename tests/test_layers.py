@@ -9,9 +9,9 @@ The layers of ``mcnkit``, bottom to top (a module may import its own layer and t
 1. **algorithms and data**: ``io`` (log readers and writers), ``slam`` (grid FastSLAM), ``completion`` (the
    networks, training, sampling, scores), ``datasets`` (floor plans, HouseExpo, training pairs), ``metrics``
    (trajectory errors, TUM files).
-2. **MCN-SLAM and the simulator**: ``mcn``, ``sim``.
+2. **MCN-SLAM and the simulator**: ``mcn`` (and ``mcn_config``, its settings without torch), ``sim``.
 3. **what runs them**: ``drive`` (the loop over frames), ``sinks`` (its outputs), ``viz`` (Rerun), ``plots``
-   (matplotlib), ``widgets`` (notebooks), ``runconfig`` (run settings from flags and files), ``run``
+   (matplotlib), ``widgets`` (notebooks), ``runconfig`` (run settings from flags and files), ``recording`` (where a recording goes: file, live viewer), ``run``
    (MCN-SLAM on a log), ``demo``, ``experiments`` (the paper's experiments).
 4. **commands**: ``cli`` (the ``mcnkit`` dispatcher) and the command modules of the packages: ``io.cli``,
    ``slam.cli``, ``slam.evaluate`` (``mcnkit eval``), ``datasets.cli``, ``completion.cli``, ``experiments.cli``.
@@ -31,9 +31,9 @@ LAYERS: dict[str, int] = {
     "mcnkit": 0, "mcnkit._lazy": 0, "mcnkit.types": 0, "mcnkit.geometry": 0, "mcnkit.grid": 0,
     "mcnkit.locations": 0, "mcnkit.threads": 0, "mcnkit.outputs": 0, "mcnkit.exits": 0,
     "mcnkit.io": 1, "mcnkit.slam": 1, "mcnkit.completion": 1, "mcnkit.datasets": 1, "mcnkit.metrics": 1,
-    "mcnkit.mcn": 2, "mcnkit.sim": 2,
+    "mcnkit.mcn": 2, "mcnkit.mcn_config": 2, "mcnkit.sim": 2,
     "mcnkit.drive": 3, "mcnkit.sinks": 3, "mcnkit.viz": 3, "mcnkit.plots": 3, "mcnkit.widgets": 3,
-    "mcnkit.runconfig": 3, "mcnkit.run": 3, "mcnkit.demo": 3, "mcnkit.experiments": 3,
+    "mcnkit.runconfig": 3, "mcnkit.recording": 3, "mcnkit.run": 3, "mcnkit.demo": 3, "mcnkit.experiments": 3,
     "mcnkit.cli": 4, "mcnkit.io.cli": 4, "mcnkit.slam.cli": 4, "mcnkit.slam.evaluate": 4,
     "mcnkit.datasets.cli": 4, "mcnkit.completion.cli": 4, "mcnkit.experiments.cli": 4,
 }  # fmt: skip
