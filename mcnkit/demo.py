@@ -142,8 +142,8 @@ def _score(outcome: Outcome, signals: Signals | None, mcn: McnSlam, sim: SimResu
 
 
 def _main(args: argparse.Namespace) -> int:
-    from mcnkit.cli import fail
     from mcnkit.drive import SIGNALS
+    from mcnkit.exits import fail
     from mcnkit.outputs import Output, check_outputs
     from mcnkit.recording import RecordingConfig, ViewerError, live_viewer
     from mcnkit.runconfig import ConfigError, resolve_section
