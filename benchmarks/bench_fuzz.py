@@ -151,11 +151,11 @@ def read_frames(path: Path) -> tuple[list[Frame] | None, list[str], str | None]:
 
 
 def short_slam(frames: list[Frame], n: int) -> None:
+    from mcnkit.drive import drive
     from mcnkit.slam import FastSlam, SlamConfig
 
     slam = FastSlam(SlamConfig(n_particles=5), np.random.default_rng(0))
-    for f in frames[:n]:
-        slam.step(f)
+    drive(frames[:n], slam)
     if slam.n_scans:
         slam.best_ternary()
 

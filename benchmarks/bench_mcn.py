@@ -47,14 +47,14 @@ def _child(mode: str, log: str, ranks: int, rrd: str, repeats: int = 2) -> None:
     torch.set_num_threads(1)
     with open_log(log) as reader:
         frames = list(reader.frames())
+    from mcnkit.drive import drive
     from mcnkit.slam import FastSlam, SlamConfig
 
     config = SlamConfig(n_particles=30)
     if mode == "slam":
         cpu0 = time.process_time()
         slam = FastSlam(config, np.random.default_rng(0))
-        for frame in frames:
-            slam.step(frame)
+        drive(frames, slam)  # the one driver, no sinks: the filter's own cost
         print(json.dumps({"cpu_s": time.process_time() - cpu0, "scans": len(frames), "updates": slam.n_updates}))
         return
     from mcnkit.mcn import McnConfig, McnSlam, load_model

@@ -26,6 +26,7 @@ import numpy as np
 import torch
 
 from mcnkit.datasets import read_split
+from mcnkit.drive import drive
 from mcnkit.mcn import McnConfig, McnSlam, load_model
 from mcnkit.metrics import absolute_trajectory_error
 from mcnkit.sim import SimConfig, plan_raster, simulate
@@ -72,8 +73,7 @@ def main() -> None:
                     mcn = McnSlam(SlamConfig(n_particles=a.particles), net,
                                   McnConfig(samples=1, ranks=1, full_map_every=0, completion_weight=lam),
                                   np.random.default_rng(seed), generator=torch.Generator().manual_seed(seed))
-                    for frame in sim.frames:
-                        mcn.step(frame)
+                    drive(sim.frames, mcn)
                     ate = absolute_trajectory_error(mcn.slam.trajectory(), sim.ground_truth).rmse_m
                     row = {"map": spec, "odometry_noise_scale": scale, "seed": seed, "completion_weight": lam,
                            "ate_m": ate, "cpu_s": time.process_time() - t0, "scans": len(sim.frames)}

@@ -26,6 +26,7 @@ import numpy as np
 from scipy import ndimage
 
 from mcnkit.datasets import read_split
+from mcnkit.drive import drive
 from mcnkit.io import open_log
 from mcnkit.metrics import absolute_trajectory_error
 from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log
@@ -72,8 +73,7 @@ def run_one(spec: str, tmp: Path, seed: int) -> dict[str, object]:
     t0 = time.process_time()
     slam = FastSlam(SlamConfig(n_particles=30), np.random.default_rng(seed))
     with open_log(path) as log:
-        for frame in log.frames():
-            slam.step(frame)
+        drive(log.frames(), slam)
     cpu = time.process_time() - t0
     ternary = slam.best_ternary()
     assert ternary.spec is not None
