@@ -16,11 +16,12 @@ from rosbags.typesys import TypesysError
 
 __all__ = ["DECODE_ERRORS", "PARSE_ERRORS", "LogError", "LogWarning", "as_log_error", "warn_skipped"]
 
-# What parsers of damaged bytes raise (struct, codecs, decompressors, rosbags' deserialisers).
+# What parsers of damaged bytes raise (struct, codecs, decompressors — lz4 raises RuntimeError —, rosbags'
+# deserialisers, sqlite).  Not TypeError, AttributeError, AssertionError, MemoryError, RecursionError: those are
+# bugs (or limits) in mcnkit and keep their traceback.
 DECODE_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, KeyError, IndexError, TypeError, AttributeError, AssertionError, EOFError, OSError, RuntimeError,
-    OverflowError, MemoryError, RecursionError, struct.error, zlib.error, zstandard.ZstdError, SerdeError,
-    TypesysError, sqlite3.Error,
+    ValueError, KeyError, IndexError, EOFError, OSError, RuntimeError, OverflowError, struct.error, zlib.error,
+    zstandard.ZstdError, SerdeError, TypesysError, sqlite3.Error,
 )
 
 # What decoding one damaged message raises: a message failing with one of these is skipped and counted.  Programming
@@ -57,4 +58,4 @@ def as_log_error(path: Path | str, doing: str) -> Iterator[None]:
         raise
     except DECODE_ERRORS as err:
         detail = str(err).strip().splitlines()[0][:200] if str(err).strip() else ""
-        raise LogError(path, f"{doing}: {type(err).__name__}{': ' + detail if detail else ''}") from None
+        raise LogError(path, f"{doing}: {type(err).__name__}{': ' + detail if detail else ''}") from err

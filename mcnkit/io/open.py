@@ -99,7 +99,7 @@ def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
             storage = str(info.get("storage_identifier", ""))
             files = [path / Path(p).name for p in info.get("relative_file_paths", [])]
         except Exception as err:  # noqa: BLE001 - ruamel raises many error types
-            raise LogError(meta, f"not a rosbag2 metadata file ({type(err).__name__})") from None
+            raise LogError(meta, f"not a rosbag2 metadata file ({type(err).__name__})") from err
         if missing := [f.name for f in files if not f.exists()]:
             raise LogError(path, f"bag files listed in metadata.yaml are missing: {missing}")
         if info.get("compression_mode"):

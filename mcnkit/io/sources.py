@@ -147,7 +147,7 @@ class SqliteSource(RawSource):
                 counts = dict(db.execute("SELECT topic_id, count(*) FROM messages GROUP BY topic_id").fetchall())
                 defs = _sqlite_definitions(db)
             except sqlite3.DatabaseError as err:
-                raise LogError(f, f"not a readable rosbag2 sqlite3 file ({err})") from None
+                raise LogError(f, f"not a readable rosbag2 sqlite3 file ({err})") from err
             _quick_check(f, db)
             self._dbs.append((f, db))
             for tid, name, msgtype, fmt in topics:
