@@ -152,6 +152,7 @@ class McapRecords:
     messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # (log_time, channel, data)
     stopped_at: int | None = None
     stop_reason: str = ""
+    chunks: int = 0  # chunk records met (0: an unchunked file, whose only checksum is the data section's)
     damaged_chunks: int = 0  # whole chunks skipped: CRC mismatch or undecodable
     data_crc_ok: bool | None = None  # the DataEnd record's CRC of the data section (None: absent or not reached)
 
@@ -197,6 +198,7 @@ def _take_records(buf: bytes, out: McapRecords, inside_chunk: bool) -> tuple[int
                 channel, _seq, log_time, _pub = _MSG_HEAD.unpack_from(buf, body)
                 out.messages.append((log_time, channel, bytes(buf[body + 22 : end])))
             elif op == _OP_CHUNK:
+                out.chunks += 1
                 size, crc = struct.unpack_from("<QI", buf, body + 16)
                 kind, o = _str(buf, body + 28)
                 (rlen,) = struct.unpack_from("<Q", buf, o)

@@ -98,7 +98,7 @@ def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
             info = YAML(typ="safe").load(meta.read_text())["rosbag2_bagfile_information"]
             storage = str(info.get("storage_identifier", ""))
             files = [path / Path(p).name for p in info.get("relative_file_paths", [])]
-        except Exception as err:  # noqa: BLE001 - ruamel raises many error types
+        except Exception as err:
             raise LogError(meta, f"not a rosbag2 metadata file ({type(err).__name__})") from err
         if missing := [f.name for f in files if not f.exists()]:
             raise LogError(path, f"bag files listed in metadata.yaml are missing: {missing}")

@@ -24,7 +24,7 @@ from mcap.reader import make_reader
 
 from mcnkit.io.decode import normalize_msgtype
 from mcnkit.io.errors import PARSE_ERRORS, LogError, warn_skipped
-from mcnkit.io.mcap_chunks import iter_chunk_messages, read_mcap_records, summary_crc_ok
+from mcnkit.io.mcap_chunks import McapRecords, iter_chunk_messages, read_mcap_records, summary_crc_ok
 from mcnkit.io.ros1_records import ChunkInfo, iter_indexed_messages, read_ros1_index, read_ros1_records
 
 __all__ = ["Connection", "McapSource", "RawMessage", "RawSource", "Ros1BagSource", "SqliteSource"]
@@ -266,6 +266,9 @@ class McapSource(RawSource):
             if crc_ok is False:
                 warn_skipped(f, "the summary section does not match its CRC; read record by record instead")
             if summary is not None and summary.statistics is not None:
+                if not summary.chunk_indexes:  # unchunked: the data section's CRC is the only check there is
+                    stream.seek(0)
+                    _refuse_unchunked_damage(f, read_mcap_records(stream.read()))
                 counts = summary.statistics.channel_message_counts
                 self._streamed[str(f)] = False
                 return [_mcap_connection(f, ch, summary.schemas.get(ch.schema_id), counts.get(ch.id, 0))
@@ -279,6 +282,7 @@ class McapSource(RawSource):
                          f"from byte {rec.stopped_at} on is unreadable ({rec.stop_reason})")
         if rec.damaged_chunks:
             warn_skipped(f, f"skipped {rec.damaged_chunks} damaged chunk(s) (CRC mismatch or undecodable)")
+        _refuse_unchunked_damage(f, rec)
         if rec.data_crc_ok is False and not rec.damaged_chunks:
             warn_skipped(f, "the data section does not match its CRC (damage outside the chunks)")
         self._recovered[str(f)] = sorted(rec.messages, key=lambda m: m[0])
@@ -325,6 +329,14 @@ class McapSource(RawSource):
                 warn_skipped(f, f"stopped at a damaged chunk ({type(err).__name__}: {err})")
             if damaged:
                 warn_skipped(f, f"skipped {len(damaged)} damaged chunk(s) ({damaged[0]})")
+
+
+def _refuse_unchunked_damage(f: Path, rec: McapRecords) -> None:
+    """An MCAP without chunks whose data section fails its CRC: the damage could be in any message and there is
+    no smaller checksummed unit to drop, so the file is refused rather than read with changed values."""
+    if rec.chunks == 0 and rec.data_crc_ok is False:
+        raise LogError(f, "damaged: the data section does not match its CRC (an unchunked MCAP: no telling which "
+                          "messages changed)")
 
 
 def _mcap_connection(f: Path, channel: object, schema: object, count: int) -> Connection:

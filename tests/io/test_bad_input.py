@@ -252,3 +252,40 @@ def test_an_mcap_chunk_that_fails_its_crc_is_skipped_with_a_count(tmp_path: Path
     clean = {f.stamp_ns: f for f in frames}
     assert len(got) < len(frames)
     assert all(np.array_equal(f.scan.ranges_m, clean[f.stamp_ns].scan.ranges_m, equal_nan=True) for f in got)
+
+
+def _unchunked_copy(src: Path, dst: Path) -> Path:
+    """``src`` rewritten without chunks but with a data-section CRC (what some MCAP writers produce)."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with open(src, "rb") as f, open(dst, "wb") as out:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None
+        w = Writer(out, use_chunking=False, enable_data_crcs=True)
+        w.start(profile=reader.get_header().profile, library="test")
+        schemas = {sid: w.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
+        channels = {cid: w.register_channel(c.topic, c.message_encoding, schemas[c.schema_id])
+                    for cid, c in summary.channels.items()}
+        for _, channel, message in reader.iter_messages():
+            w.add_message(channels[channel.id], log_time=message.log_time, publish_time=message.publish_time,
+                          data=message.data, sequence=message.sequence)
+        w.finish()
+    return dst
+
+
+def test_an_unchunked_mcap_failing_its_data_crc_is_refused(tmp_path: Path) -> None:
+    """Without chunks the data section's CRC is the only check: damage anywhere in it refuses the file (there is
+    no smaller unit to drop), instead of passing changed values on."""
+    path = _unchunked_copy(write_log(tmp_path / "a.mcap", LogContent(make_frames(n=200, beams=90)), "mcap"),
+                           tmp_path / "unchunked.mcap")
+    with open_log(path) as log:
+        assert len(list(log.frames())) == 200
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0x01  # one bit of one range, somewhere in the middle of the data section
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(LogError, match=r"bad\.mcap: damaged: the data section does not match its CRC"):
+        with open_log(bad) as log:
+            list(log.frames())
