@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,10 +16,23 @@ from mcnkit.types import TernaryMap
 if TYPE_CHECKING:
     from mcnkit.mcn import Completion
 
-__all__ = ["TERNARY_CMAP", "completion_figure", "plot_slam_state", "plot_ternary"]
+__all__ = ["TERNARY_CMAP", "completion_figure", "image_row", "plot_slam_state", "plot_ternary"]
 
 # free 0.0 -> light, unknown 0.5 -> grey, occupied 1.0 -> black (the viewer's AnnotationContext colours)
 TERNARY_CMAP = ListedColormap([(235 / 255,) * 3, (128 / 255,) * 3, (20 / 255,) * 3])
+
+
+def image_row(axes: Sequence[Axes], panels: Sequence[tuple[NDArray[np.floating], str]],
+              titles: Sequence[str] | None = None) -> None:
+    """One row of a figure grid: each (image in [0, 1], colormap) drawn on its axes without ticks, ``titles`` above
+    (for the grid's first row)."""
+    for i, (image, cmap) in enumerate(panels):
+        ax = axes[i]
+        ax.imshow(image, cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest", origin="lower")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        if titles is not None:
+            ax.set_title(titles[i], fontsize=7)
 
 
 def plot_ternary(ax: Axes, ternary: TernaryMap, title: str = "") -> None:

@@ -26,6 +26,8 @@ def example_figure(path: Path, houses: list[HouseRun], late_updates: list[int],
     network label, the completions of every house."""
     from matplotlib.figure import Figure
 
+    from mcnkit.plots import image_row
+
     n = min(n, len(houses))
     labels = list(comps[ITERATIONS[0]])
     unet = next((lab for lab in labels if "U-net" in lab), labels[0] if labels else None)
@@ -50,13 +52,7 @@ def example_figure(path: Path, houses: list[HouseRun], late_updates: list[int],
                 panels += [(c.mean[i], "gray_r"), (c.uncertainty[i], "magma")]
             panels += [(comps[it][lab].mean[i], "gray_r") for lab in labels if lab != unet]
             panels.append((h.truth, "gray_r"))
-            for c_idx, (img, cmap) in enumerate(panels):
-                ax = axes[r, c_idx]
-                ax.imshow(img, cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest", origin="lower")
-                ax.set_xticks([])
-                ax.set_yticks([])
-                if r == 0:
-                    ax.set_title(cols[c_idx], fontsize=7)
+            image_row(axes[r], panels, cols if r == 0 else None)
             axes[r, 0].set_ylabel(f"{h.name.split(':')[-1][:6]}\niter {update + 1}/{h.n_updates}", fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

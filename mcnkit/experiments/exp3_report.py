@@ -41,6 +41,8 @@ def windows_figure(path: Path, name: str, pts: list[PointWindows], comps: dict[s
     """One row per point: m_t, a U-net's two samples, mean and uncertainty, the other networks' means, m_T."""
     from matplotlib.figure import Figure
 
+    from mcnkit.plots import image_row
+
     labels = list(comps)
     unet = next((lab for lab in labels if "U-net" in lab), labels[0] if labels else None)
     cols = ["m_t"]
@@ -58,13 +60,7 @@ def windows_figure(path: Path, name: str, pts: list[PointWindows], comps: dict[s
             panels += [(c.mean[r], "gray_r"), (c.uncertainty[r], "magma")]
         panels += [(comps[lab].mean[r], "gray_r") for lab in labels if lab != unet]
         panels.append((pw.truth, "gray_r"))
-        for c_idx, (img, cmap) in enumerate(panels):
-            ax = axes[r, c_idx]
-            ax.imshow(img, cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest", origin="lower")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            if r == 0:
-                ax.set_title(cols[c_idx], fontsize=7)
+        image_row(axes[r], panels, cols if r == 0 else None)
         axes[r, 0].set_ylabel(f"{pw.point:.0%}\nupdate {pw.update + 1}/{n_updates}", fontsize=7)
     fig.suptitle(name, fontsize=9)
     fig.tight_layout()
