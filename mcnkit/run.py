@@ -188,6 +188,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit run``."""
     p = sub.add_parser("run", help="MCN-SLAM on a robot log: SLAM + sampled map completions, recorded to Rerun",
+                       usage="mcnkit run LOG [--rrd FILE] [--out DIR] [--model NAME|PATH] [--config FILE] "
+                             "[--slam.FIELD|--mcn.FIELD|--recording.FIELD VALUE ...] [options]",
                        description="MCN-SLAM on a robot log.  At every filter update the R best particles' maps are "
                        "completed K times by the network (one forward pass); with --rrd the recording gets the "
                        "particles, the best map and its unknown mask, each rank's map, its K samples and their "

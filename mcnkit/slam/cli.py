@@ -65,6 +65,7 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
     p: argparse.ArgumentParser = subparsers.add_parser(
         "slam",
         help="run grid FastSLAM (gmapping-class) on a robot log",
+        usage="mcnkit slam LOG --out DIR [--rrd FILE] [--config FILE] [--slam.FIELD VALUE ...] [options]",
         description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
