@@ -450,6 +450,9 @@ class CarmenLog(LogReader):
         self._stamps = stamps
         self._odom = odom
         self._ranges = np.stack([s.ranges for s in scans])
+        if n_bad := int((~np.isfinite(self._ranges)).sum()):  # CARMEN writes numbers: nan / inf are damage
+            rows = int((~np.isfinite(self._ranges)).any(axis=1).sum())
+            warn_skipped(path, f"{n_bad} range reading(s) in {rows} scan(s) are not numbers (nan / inf): read as no return")
         if self._gt is not None:
             gt_poses = self._gt.poses.copy()
             gt_poses[:, 2] = wrap_angle(gt_poses[:, 2])

@@ -289,3 +289,20 @@ def test_an_unchunked_mcap_failing_its_data_crc_is_refused(tmp_path: Path) -> No
     with pytest.raises(LogError, match=r"bad\.mcap: damaged: the data section does not match its CRC"):
         with open_log(bad) as log:
             list(log.frames())
+
+
+def test_nan_ranges_in_a_carmen_log_are_no_returns_with_one_warning(tmp_path: Path) -> None:
+    """CARMEN writes numbers: a ``nan`` there is damage, read as "no return" and counted in one warning."""
+    lines = []
+    for k in range(10):
+        ranges = [f"{2.0 + 0.01 * i:.2f}" for i in range(181)]
+        if k in (3, 4):
+            ranges[10:13] = ["nan", "inf", "nan"]
+        lines.append(f"FLASER 181 {' '.join(ranges)} {0.05 * k} 0 0 {0.05 * k} 0 0 {1 + 0.1 * k:.1f} host 0")
+    path = tmp_path / "nan.log"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.warns(LogWarning, match=r"nan\.log: 6 range reading\(s\) in 2 scan\(s\) are not numbers"):
+        with open_log(path) as log:
+            got = list(log.frames())
+    assert len(got) == 10
+    assert np.isfinite(got[0].scan.ranges_m).all()
