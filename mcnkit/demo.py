@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -78,6 +79,7 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
     from mcnkit.types import TernaryMap
 
     t0 = time.perf_counter()
+    net = load_model(model)  # first: a bad checkpoint is reported before anything is simulated or written
     out.mkdir(parents=True, exist_ok=True)
     print(f"[1/4] simulating a robot in procedural apartment #{apartment} (seed {seed})")
     raster = plan_raster(f"procedural:{apartment}", 0.05, None)
@@ -92,7 +94,7 @@ def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particl
           f"update ({model}), recording every step to {rrd}")
     slam_config, mcn_config = SlamConfig(n_particles=particles), McnConfig(samples=samples, ranks=ranks)
     recording = recording or RecordingConfig()
-    mcn = McnSlam(slam_config, load_model(model), mcn_config, np.random.default_rng(seed),
+    mcn = McnSlam(slam_config, net, mcn_config, np.random.default_rng(seed),
                   generator=torch.Generator().manual_seed(seed), ground_truth=truth)
     info = {"command": "demo", "log": str(log_path), "model": model, "samples": samples, "ranks": ranks,
             "particles": particles, "seed": seed, "apartment": apartment, "duration_s": duration_s,
@@ -160,8 +162,19 @@ def _main(args: argparse.Namespace) -> int:
                       duration_s=args.duration_s, samples=args.samples, ranks=args.ranks, model=args.model,
                       signals=SIGNALS, live=live, recording=recording)
     print(f"\nrecording: {result.rrd_path}   map: {result.map_png}   completions: {result.completion_png}")
-    print(f"watch it:  .venv/bin/rerun {result.rrd_path}        (or open it in notebooks/01_quickstart.ipynb)")
+    print(f"watch it:  {_rerun_command()} {result.rrd_path}        (or open it in notebooks/01_quickstart.ipynb)")
     return 0
+
+
+def _rerun_command() -> str:
+    """The ``rerun`` viewer installed beside this Python (relative to here when it lies below), else ``rerun``."""
+    viewer = Path(sys.executable).parent / "rerun"
+    if not viewer.is_file():
+        return "rerun"
+    try:
+        return str(viewer.relative_to(Path.cwd()))
+    except ValueError:
+        return str(viewer)
 
 
 _DESCRIPTION = """MCN-SLAM end to end on embedded data (no download, shipped network weights):
