@@ -271,6 +271,16 @@ def repair_stamps(stamps_ns: list[int | None], fallback_ns: NDArray[np.int64] | 
     valid = (raw > 0) & (raw < int(_SENTINEL_S * 1e9))
     if valid.all() and (k == 1 or (np.diff(raw) > 0).all()):
         return raw, None
+    n_bad = k - int(valid.sum())
+    if 0 < n_bad <= max(1, k // 20) and valid.sum() >= 2:
+        # a few stamps without time among good ones (damaged digits, a missing field): each takes the time of the
+        # scan before it (the first valid one's, at the start), so it is a tie spread like any other
+        filled = np.where(valid, raw, -1)
+        filled[: int(np.argmax(valid))] = raw[valid][0]
+        for i in np.flatnonzero(filled < 0):
+            filled[i] = filled[i - 1]
+        absent = np.array([st is None for st in stamps_ns])
+        return _repaired_few(raw, filled, absent, fallback_ns, period_s)
     steps = np.diff(raw[valid]) if valid.sum() > 1 else np.zeros(0, np.int64)
     problems = []
     if missing:
@@ -307,6 +317,22 @@ def repair_stamps(stamps_ns: list[int | None], fallback_ns: NDArray[np.int64] | 
     t0 = int(raw[valid][0]) if valid.any() else 0
     out = t0 + np.round(np.arange(k) * period_s * 1e9).astype(np.int64)
     return out, f"scan stamps: {what}; stamped in log order every {period_s:g} s"
+
+
+def _repaired_few(raw: NDArray[np.int64], filled: NDArray[np.int64], absent: NDArray[np.bool_],
+                  fallback_ns: NDArray[np.int64] | None, period_s: float) -> tuple[NDArray[np.int64], str | None]:
+    """:func:`repair_stamps` for a log whose stamps are good but for a few (``absent``: no stamp field): those are
+    named in the warning, and the filled-in stamps go through the usual rules (ties and slips spread)."""
+    what = []
+    if n_absent := int(absent.sum()):
+        what.append(f"{n_absent} without a stamp")
+    if n_low := int(np.count_nonzero((raw <= 0) & ~absent)):
+        what.append(f"{n_low} zero or negative")
+    if n_sentinel := int(np.count_nonzero(raw >= int(_SENTINEL_S * 1e9))):
+        what.append(f"{n_sentinel} at the 32-bit sentinel 4.29497e+09")
+    stamps, problem = repair_stamps([int(v) for v in filled], fallback_ns, period_s)
+    named = f"scan stamps: {', '.join(what)} (each given the time of the scan before)"
+    return stamps, named + ("; " + problem.removeprefix("scan stamps: ") if problem else "")
 
 
 def _spread(stamps: NDArray[np.int64]) -> NDArray[np.int64]:

@@ -176,3 +176,14 @@ def test_several_no_return_sentinels_at_the_top_of_the_range_are_all_no_return(t
         assert log.lidar_spec.range_max_m == pytest.approx(49.98)
         first = next(iter(log.frames()))
     assert not first.scan.valid[first.scan.ranges_m >= 50.0].any()
+
+
+@pytest.mark.parametrize(("bad", "problem"), [("-3.5", "1 zero or negative"), ("4.29497e+09", "1 at the 32-bit sentinel")])
+def test_one_bad_stamp_among_good_ones_is_a_tie_not_a_restamped_log(tmp_path: Path, bad: str, problem: str) -> None:
+    """The log's own time is kept: the damaged stamp takes its predecessor's time and is spread like a tie."""
+    lines = [_flaser(k, f"{100.0 + 0.25 * k:.3f}" if k != 5 else bad) for k in range(N_SCANS)]
+    stamps, xs, messages, _ = _read(_write(tmp_path, lines))
+    _assert_complete_and_in_log_order(stamps, xs)
+    assert len(messages) == 1 and problem in messages[0] and "the time of the scan before" in messages[0]
+    assert stamps[0] == 100_000_000_000 and stamps[-1] == int((100.0 + 0.25 * (N_SCANS - 1)) * 1e9)
+    assert 101_000_000_000 < stamps[5] < 101_500_000_000  # between its neighbours' own times
