@@ -21,6 +21,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
+from mcnkit.completion.calibration import score_samples
 from mcnkit.completion.checkpoint import load_generator
 from mcnkit.completion.data import load_domain_pairs
 from mcnkit.completion.nets import UNet
@@ -32,7 +33,7 @@ from mcnkit.datasets import PairSet, procedural_pairs
 from mcnkit.experiments.common import fill_unknown
 from mcnkit.experiments.exp1_report import example_figure, markdown
 from mcnkit.experiments.options import Exp1Config, add_exp1_arguments, exp1_config_from_args
-from mcnkit.experiments.rows import EXP1_COLUMNS, Exp1Row
+from mcnkit.experiments.rows import EXP1_COLUMNS, Exp1Row, Exp1SampleRow
 from mcnkit.experiments.tables import write_rows
 from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED
@@ -61,6 +62,21 @@ def _example_samples(test: PairSet, nets: dict[str, UNet], k: int, n: int, seed:
     idx = np.linspace(0, len(test) - 1, min(n, len(test))).astype(int)
     return idx, {name: sample_completions(net, test.partial[idx], k, torch.Generator().manual_seed(seed))
                  for name, net in nets.items()}
+
+
+SAMPLE_K = 8
+"""Samples per test map for the sampled table (issue 15's protocol)."""
+
+
+def _sample_row(label: str, train_domain: str, test_domain: str, net: UNet, test: PairSet, k: int, seed: int
+                ) -> Exp1SampleRow:
+    """``net``'s ``k`` samples of every test map (seeded, in batches of 100), scored."""
+    generator = torch.Generator().manual_seed(seed)
+    samples = np.concatenate([sample_completions(net, test.partial[i : i + 100], k, generator).samples
+                              for i in range(0, len(test), 100)])
+    s = score_samples(samples, test.partial, test.target)
+    return Exp1SampleRow(label, train_domain, test_domain, s.n_maps, s.k, s.error, s.spread, s.spread_over_error,
+                         s.ece, s.best_of_k_ratio, s.f_single, s.f_majority, s.f_best_of_k)
 
 
 def run_exp1(cfg: Exp1Config) -> str:
@@ -105,6 +121,9 @@ def _run_exp1(cfg: Exp1Config) -> str:
         rows += _rows("unknown filled all-free", "-", test_domain, fill_unknown(test.partial, FREE), test)
         rows += _rows("unknown filled all-occupied", "-", test_domain, fill_unknown(test.partial, OCCUPIED), test)
     write_rows(out / "exp1.csv", rows, Exp1Row, EXP1_COLUMNS)
+    sampled = [_sample_row(label, train_domain, "houseexpo", net, he_test, SAMPLE_K, cfg.seed)
+               for (label, train_domain), net in nets.items()]
+    write_rows(out / "exp1_samples.csv", sampled, Exp1SampleRow)
     fig_nets = {title: nets[key] for key, title in FIGURE_NETS.items() if key in nets}
     diversity: dict[str, float] = {}
     if fig_nets:
@@ -112,6 +131,6 @@ def _run_exp1(cfg: Exp1Config) -> str:
         example_figure(out / "exp1_examples.png", he_test, idx, samples)
         diversity = {name: float(s.diversity.mean()) for name, s in samples.items()}
     notes.append(f"wall time {time.perf_counter() - t0:.0f} s; figure: exp1_examples.png ({os.fspath(out)})")
-    md = markdown(rows, diversity, cfg.n_samples, notes)
+    md = markdown(rows, diversity, cfg.n_samples, notes, sampled)
     (out / "exp1.md").write_text(md)
     return md

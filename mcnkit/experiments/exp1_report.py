@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from mcnkit.completion.sample import SampleSet
 from mcnkit.datasets import PairSet
 from mcnkit.experiments import paper
-from mcnkit.experiments.rows import Exp1Row
+from mcnkit.experiments.rows import Exp1Row, Exp1SampleRow
 
 __all__ = ["example_figure", "markdown"]
 
@@ -22,9 +22,10 @@ def _row(r: Exp1Row) -> str:
             f"{s.miou_unknown:.4f} ± {s.miou_ci95:.4f} | {s.pooled_f_measure:.4f} | {s.pooled_miou_unknown:.4f} |")
 
 
-def markdown(rows: list[Exp1Row], diversity: dict[str, float], n_samples: int, notes: list[str]) -> str:
-    """``exp1.md``: per positive class the table of ``rows``, the paper's table, the sample diversity
-    (``n_samples`` samples per example) and the notes."""
+def markdown(rows: list[Exp1Row], diversity: dict[str, float], n_samples: int, notes: list[str],
+             sampled: list[Exp1SampleRow] | None = None) -> str:
+    """``exp1.md``: per positive class the table of ``rows``, the paper's table, the sampled table (best-of-K,
+    calibration), the sample diversity (``n_samples`` samples per example) and the notes."""
     lines = ["# Experiment 1: map completion (HouseExpo, one Pseudo-SLAM scan) and cross-domain", ""]
     for positive in ("free", "occupied"):
         lines += [
@@ -37,6 +38,15 @@ def markdown(rows: list[Exp1Row], diversity: dict[str, float], n_samples: int, n
         lines.append("")
     lines += ["## The paper's Table (free space positive; Acc / Prec / Rec / F)", "", "| method | Acc | Prec | Rec | F |",
               "|---|---|---|---|---|", *paper.markdown_rows(paper.EXP1), ""]  # fmt: skip
+    if sampled:
+        k = sampled[0].k
+        lines += [f"## Sampled completions ({k} per test map; cells unknown in m_t; free space positive for F)", "",
+                  "| method | train | test | n | error | spread / error | ECE | best-of-K / single error | F one "
+                  "sample | F majority | F best of K |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"| {r.method} | {r.train_domain} | {r.test_domain} | {r.n_maps} | {r.error:.3f} | "
+                  f"{r.spread_over_error:.2f} | {r.ece:.3f} | {r.best_of_k_ratio:.2f} | {r.f_single:.3f} | "
+                  f"{r.f_majority:.3f} | {r.f_best_of_k:.3f} |" for r in sampled]
+        lines.append("")
     if diversity:
         lines += [f"## Sample diversity ({n_samples} samples, dropout on; share of cells two samples differ on)", ""]
         lines += [f"- {k}: {v:.4f}" for k, v in diversity.items()] + [""]

@@ -60,6 +60,26 @@ EXP1_COLUMNS = (
 
 
 @dataclass(frozen=True)
+class Exp1SampleRow:
+    """Experiment 1, sampled: one network's K samples per test map, scored on the cells unknown in m_t
+    (:func:`mcnkit.completion.calibration.score_samples`)."""
+
+    method: str
+    train_domain: str
+    test_domain: str
+    n_maps: int
+    k: int
+    error: float
+    spread: float
+    spread_over_error: float
+    ece: float
+    best_of_k_ratio: float
+    f_single: float
+    f_majority: float
+    f_best_of_k: float
+
+
+@dataclass(frozen=True)
 class Exp2Row:
     """Experiment 2: one method and variant at one iteration, one positive class, over all houses."""
 
