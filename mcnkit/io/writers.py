@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from mcap.reader import make_reader as make_mcap_reader
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 from rosbags.rosbag1 import Writer as Ros1Writer
@@ -162,6 +163,29 @@ def _write_ros2(path: Path, content: LogContent, ts: Typestore, storage: Storage
             writer.write(conns[topic], stamp, ts.serialize_cdr(msg, _TYPES[kind]))
 
 
+def _add_mcap_crcs(path: Path, chunk_bytes: int) -> None:
+    """Rewrites a rosbag2 folder's MCAP file (rosbags stores CRC 0) with chunk and data-section CRCs, as
+    ``ros2 bag record`` does, so that a reader can tell a damaged chunk: records copied unchanged, in order."""
+    tmp = path.with_name(path.name + ".crc")
+    with open(path, "rb") as src, open(tmp, "wb") as dst:
+        reader = make_mcap_reader(src)
+        header, summary = reader.get_header(), reader.get_summary()
+        assert summary is not None  # rosbags writes a summary
+        w = McapWriter(dst, chunk_size=chunk_bytes, compression=CompressionType.ZSTD, enable_crcs=True,
+                       enable_data_crcs=True)
+        w.start(profile=header.profile, library=header.library)
+        schemas = {sid: w.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
+        channels = {cid: w.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0), c.metadata)
+                    for cid, c in summary.channels.items()}
+        for _schema, channel, message in reader.iter_messages(log_time_order=False):
+            w.add_message(channels[channel.id], log_time=message.log_time, publish_time=message.publish_time,
+                          data=message.data, sequence=message.sequence)
+        for record in reader.iter_metadata():
+            w.add_metadata(record.name, record.metadata)
+        w.finish()
+    tmp.replace(path)
+
+
 def _write_mcap(path: Path, content: LogContent, ts: Typestore, ros1: bool, chunk_bytes: int) -> None:
     b = _Msgs(ts, ros1=ros1)
     serialize: Callable[[Any, str], Any] = ts.serialize_ros1 if ros1 else ts.serialize_cdr
@@ -208,6 +232,9 @@ def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, 
         elif fmt in ("ros2-sqlite3", "ros2-mcap"):
             plugin = StoragePlugin.SQLITE3 if fmt == "ros2-sqlite3" else StoragePlugin.MCAP
             _write_ros2(partial, content, decoder.typestore("cdr"), plugin)
+            if plugin == StoragePlugin.MCAP:
+                for f in partial.glob("*.mcap"):
+                    _add_mcap_crcs(f, mcap_chunk_bytes)
             _rename_bag_files(partial, path.name)
         else:
             _write_mcap(partial, content, decoder.typestore("ros1" if fmt == "mcap-ros1" else "cdr"),

@@ -306,3 +306,18 @@ def test_nan_ranges_in_a_carmen_log_are_no_returns_with_one_warning(tmp_path: Pa
             got = list(log.frames())
     assert len(got) == 10
     assert np.isfinite(got[0].scan.ranges_m).all()
+
+
+def test_a_converted_rosbag2_mcap_carries_crcs_so_a_damaged_chunk_is_dropped(tmp_path: Path) -> None:
+    """rosbags stores CRC 0; mcnkit's writer adds chunk and data CRCs, so damage reads as a counted skip."""
+    frames = make_frames(n=1500, beams=360)
+    folder = write_log(tmp_path / "bag", LogContent(frames), "ros2-mcap", mcap_chunk_bytes=256 << 10)
+    data_file = next(folder.glob("*.mcap"))
+    data = bytearray(data_file.read_bytes())
+    data[len(data) // 2] ^= 0x40
+    data_file.write_bytes(bytes(data))
+    with open_log(folder) as log, pytest.warns(LogWarning, match=r"damaged chunk"):
+        got = list(log.frames())
+    clean = {f.stamp_ns: f for f in frames}
+    assert 0 < len(got) < len(frames)
+    assert all(np.array_equal(f.scan.ranges_m, clean[f.stamp_ns].scan.ranges_m, equal_nan=True) for f in got)
