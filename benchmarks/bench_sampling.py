@@ -84,10 +84,7 @@ def main() -> None:
                    "verdict": _verdict(scores)}
             rows.append(row)
             curves.setdefault(name, []).append((model, scores.reliability))
-            print(f"{model:16s} {name:22s} error {scores.error:.3f} spread {scores.spread:.3f} "
-                  f"ratio {scores.spread_over_error:.2f} ECE {scores.ece:.3f} best/single {scores.best_of_k_ratio:.2f} "
-                  f"F one {scores.f_single:.3f} majority {scores.f_majority:.3f} best {scores.f_best_of_k:.3f}  "
-                  f"{row['verdict']}", flush=True)
+            print(f"{model:16s} {name:22s} {scores.summary()}  {row['verdict']}", flush=True)
 
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "sampling.json").write_text(json.dumps({"k": args.k, "seed": args.seed, "targets": TARGETS,

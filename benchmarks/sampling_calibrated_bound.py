@@ -87,9 +87,7 @@ def main() -> None:
             s = score_samples(draw(probs, pairs.test.partial, args.k, length, np.random.default_rng(args.seed)),
                               pairs.test.partial, pairs.test.target)
             rows.append({"model": model, "length_cells": length, "fit_on": args.fit_on, **s.as_dict()})
-            print(f"{model:8s} L={length:4.1f}  error {s.error:.3f} spread {s.spread:.3f} ratio {s.spread_over_error:.2f} "
-                  f"ECE {s.ece:.3f} best/single {s.best_of_k_ratio:.2f} F one {s.f_single:.3f} "
-                  f"majority {s.f_majority:.3f} best {s.f_best_of_k:.3f}", flush=True)
+            print(f"{model:8s} L={length:4.1f}  {s.summary()}", flush=True)
     RESULTS.mkdir(exist_ok=True)
     stem = "sampling_calibrated_bound" + ("" if args.fit_on == "val" else "_ideal")
     (RESULTS / f"{stem}.json").write_text(json.dumps({"k": args.k, "n_test": args.n_test,

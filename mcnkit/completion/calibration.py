@@ -56,6 +56,12 @@ class SampleScores:
     f_best_of_k: float
     reliability: F64
 
+    def summary(self) -> str:
+        """The figures on one line (what the sampling benchmarks print)."""
+        return (f"error {self.error:.3f} spread {self.spread:.3f} ratio {self.spread_over_error:.2f} ECE {self.ece:.3f} "
+                f"best/single {self.best_of_k_ratio:.2f} F one {self.f_single:.3f} majority {self.f_majority:.3f} "
+                f"best {self.f_best_of_k:.3f}")
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict (the reliability diagram as nested lists, NaN as None)."""
         d = asdict(self)

@@ -13,6 +13,7 @@ Outputs in ``out_dir``: ``exp1.csv`` (one row per method × train domain × test
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from pathlib import Path
@@ -74,9 +75,9 @@ def _sample_row(label: str, train_domain: str, test_domain: str, net: UNet, test
     generator = torch.Generator().manual_seed(seed)
     samples = np.concatenate([sample_completions(net, test.partial[i : i + 100], k, generator).samples
                               for i in range(0, len(test), 100)])
-    s = score_samples(samples, test.partial, test.target)
-    return Exp1SampleRow(label, train_domain, test_domain, s.n_maps, s.k, s.error, s.spread, s.spread_over_error,
-                         s.ece, s.best_of_k_ratio, s.f_single, s.f_majority, s.f_best_of_k)
+    scores = score_samples(samples, test.partial, test.target)
+    figures = {f.name: getattr(scores, f.name) for f in dataclasses.fields(Exp1SampleRow) if hasattr(scores, f.name)}
+    return Exp1SampleRow(label, train_domain, test_domain, **figures)
 
 
 def run_exp1(cfg: Exp1Config) -> str:

@@ -96,38 +96,11 @@ def cast_scan(
 
 
 @numba.njit(cache=True)
-def _cast_counts(hits: U16, passes: U16, ix0: int, iy0: int, res: float, lx: float, ly: float, ex: F64, ey: F64,
-                 is_hit: NDArray[np.bool_]) -> None:
-    """:func:`cast_scan` for the output map: saturating uint16 counts, no ranks (half the memory of int32)."""
-    x0 = int(math.floor(lx / res)) - ix0
-    y0 = int(math.floor(ly / res)) - iy0
-    for k in range(ex.shape[0]):
-        x1 = int(math.floor(ex[k] / res)) - ix0
-        y1 = int(math.floor(ey[k] / res)) - iy0
-        dx, dy = abs(x1 - x0), -abs(y1 - y0)
-        stx = 1 if x0 < x1 else -1
-        sty = 1 if y0 < y1 else -1
-        err = dx + dy
-        x, y = x0, y0
-        while x != x1 or y != y1:
-            if passes[y, x] < 65535:
-                passes[y, x] += 1
-            e2 = 2 * err
-            if e2 >= dy:
-                err += dy
-                x += stx
-            if e2 <= dx:
-                err += dx
-                y += sty
-        if is_hit[k] and hits[y1, x1] < 65535:
-            hits[y1, x1] += 1
-
-
-@numba.njit(cache=True)
 def _cast_strip(hits: U16, passes: U16, ix0: int, row0: int, res: float, lx: float, ly: float, ex: F64, ey: F64,
                 is_hit: NDArray[np.bool_], iy_lo: int) -> None:
-    """:func:`_cast_counts` into a strip holding global cell rows ``row0 .. row0 + H - 1`` only (``iy_lo``: the
-    grid's first cell row); cells outside the strip are walked over but not stored."""
+    """Saturating uint16 counts of one scan, no ranks (half the memory of :func:`cast_scan`'s int32), into a strip
+    holding global cell rows ``row0 .. row0 + H - 1`` only (``iy_lo``: the grid's first cell row); cells outside
+    the strip are walked over but not stored.  A whole grid is the strip with ``row0 = 0``."""
     h = hits.shape[0]
     x0 = int(math.floor(lx / res)) - ix0
     y0 = int(math.floor(ly / res)) - iy_lo
@@ -223,5 +196,5 @@ def ray_cast_counts(
     hits = np.zeros(spec.shape, np.uint16)
     passes = np.zeros(spec.shape, np.uint16)
     for (lx, ly, _lt), (ex, ey, hit) in zip(lasers, ends, strict=True):
-        _cast_counts(hits, passes, ix0, iy0, resolution_m, lx, ly, ex, ey, hit)
+        _cast_strip(hits, passes, ix0, 0, resolution_m, lx, ly, ex, ey, hit, iy0)
     return spec, hits, passes
