@@ -80,7 +80,6 @@ def _data_dir(arg: str | None) -> Path:
 def _run(name: str, seed: int, data: Path, out: Path) -> Run:
     from mcnkit.io import open_log
     from mcnkit.metrics import absolute_trajectory_error, read_relations, read_tum, relations_error
-    from mcnkit.types import Trajectory
 
     log_rel, rel_rel = BUILDINGS[name]
     log = data / log_rel
@@ -105,13 +104,8 @@ def _run(name: str, seed: int, data: Path, out: Path) -> Run:
     if gt is not None:
         degenerate = any("scan stamps" in str(w.message) and "log order" in str(w.message) and "every" in str(w.message)
                          for w in caught)
-        if degenerate:  # rebuilt stamps: pair by scan order (the same thing, said plainly)
-            idx = np.arange(min(len(est), len(gt)), dtype=np.int64) * 1_000_000_000
-            res = absolute_trajectory_error(Trajectory(idx, est.poses[: len(idx)]), Trajectory(idx, gt.poses[: len(idx)]))
-            matched_by = "scan order"
-        else:
-            res = absolute_trajectory_error(est, gt)
-            matched_by = "stamp"
+        matched_by = "scan order" if degenerate else "stamp"  # rebuilt stamps: pair by scan order, said plainly
+        res = absolute_trajectory_error(est, gt, match="order" if degenerate else "stamp")
         ate, ate_max = res.rmse_m, res.max_m
     if rel_rel is not None:
         r = relations_error(est, read_relations(data / rel_rel))
@@ -130,7 +124,7 @@ def _load_pgm(path: Path) -> np.ndarray:
 def _draw(ax: object, name: str, out: Path, data: Path) -> None:
     """The seed-0 map of a building with its estimate (green) and the aligned reference (red)."""
     from mcnkit.io import open_log
-    from mcnkit.metrics import read_tum
+    from mcnkit.metrics import align_rigid_2d, read_tum
 
     img = _load_pgm(out / "map.pgm")
     meta = dict(line.split(": ", 1) for line in (out / "map.yaml").read_text().splitlines() if ": " in line)
@@ -145,12 +139,7 @@ def _draw(ax: object, name: str, out: Path, data: Path) -> None:
         with open_log(data / BUILDINGS[name][0]) as reader:
             gt = reader.ground_truth()
     if gt is not None and len(gt) == len(est):
-        a, b = gt.poses[:, :2], est[:, :2]  # align the reference onto the estimate (rigid, least squares)
-        ca, cb = a.mean(0), b.mean(0)
-        hh = (a - ca).T @ (b - cb)
-        ang = np.arctan2(hh[0, 1] - hh[1, 0], hh[0, 0] + hh[1, 1])
-        rot = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
-        al = (a - ca) @ rot.T + cb
+        al = align_rigid_2d(gt.poses[:, :2], est[:, :2])  # the reference drawn onto the estimate
         ax.plot(al[:, 0], al[:, 1], "-", color="tab:red", lw=0.5, label="reference")  # type: ignore[attr-defined]
     ax.set_title(name)  # type: ignore[attr-defined]
     ax.set_aspect("equal")  # type: ignore[attr-defined]

@@ -41,6 +41,7 @@ __all__ = [
     "Relations",
     "RelationsError",
     "absolute_trajectory_error",
+    "align_rigid_2d",
     "match_poses",
     "match_stamps",
     "read_relations",
@@ -275,19 +276,22 @@ def match_poses(estimate: Trajectory, reference: Trajectory, tolerance_s: float 
     return est.poses[k[ok]], ref.poses[ok]
 
 
+def align_rigid_2d(points: F64, onto: F64) -> F64:
+    """``points`` (N, 2) moved by the least-squares rigid 2-D transform (rotation + translation) onto ``onto``."""
+    ca, cb = points.mean(axis=0), onto.mean(axis=0)
+    h = (points - ca).T @ (onto - cb)
+    angle = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])  # rotation maximising alignment (2-D Kabsch)
+    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    return (points - ca) @ rot.T + cb
+
+
 def absolute_trajectory_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005, *,
                               match: str = "stamp", min_matched: int = 2, min_fraction: float = 0.0) -> AteResult:
     """ATE of ``estimate`` against ``reference`` after the least-squares rigid alignment of positions (poses
     matched by :func:`match_poses`, which says when it refuses)."""
     est, ref = match_poses(estimate, reference, tolerance_s, match=match, min_matched=min_matched,
                            min_fraction=min_fraction)
-    a, b = est[:, :2], ref[:, :2]
-    ca, cb = a.mean(axis=0), b.mean(axis=0)
-    h = (a - ca).T @ (b - cb)
-    angle = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])  # rotation maximising alignment (2-D Kabsch)
-    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-    aligned = (a - ca) @ rot.T + cb
-    err = np.linalg.norm(aligned - b, axis=1)
+    err = np.linalg.norm(align_rigid_2d(est[:, :2], ref[:, :2]) - ref[:, :2], axis=1)
     return AteResult(float(np.sqrt(np.mean(err**2))), float(err.mean()), float(err.max()), len(err))
 
 

@@ -1,13 +1,6 @@
-"""``mcnkit eval``: score a trajectory, or write a log's ground truth as the TUM file the scores read.
-
-* ``eval relations TRAJ RELATIONS``: the Kümmerle et al. (2009) relations error;
-* ``eval ate TRAJ REFERENCE``: ATE after rigid 2-D alignment, and RPE;
-* ``eval groundtruth LOG OUT.tum``: the reference trajectory a log carries (a Radish "corrected" CARMEN log's
-  corrected poses, a bag's ground-truth topic, a simulated log's true path) as TUM.
-
-Scores refuse what they cannot match (exit 2 with the reason, see :mod:`mcnkit.metrics`): too few poses matched,
-stamps that repeat.  ``--match order`` pairs the k-th poses when the stamps carry no time but both trajectories
-hold one pose per scan of the same log.
+"""``mcnkit eval``: score a trajectory, or write a log's ground truth as the TUM file the scores read (the three
+sub-commands are described once, in the command's help text below).  Scores refuse what they cannot match (exit 2
+with the reason, see :mod:`mcnkit.metrics`).
 """
 
 from __future__ import annotations
