@@ -88,7 +88,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     import threading
 
     from mcnkit.drive import SIGNALS
+    from mcnkit.heap import return_big_frees_to_os
 
+    return_big_frees_to_os()  # long runs: peak memory = what they hold, not what the heap kept (see mcnkit.heap)
     with SIGNALS.installed(threading.current_thread() is threading.main_thread()):
         return _main(argv, SIGNALS, signal.SIGINT)
 

@@ -4,8 +4,8 @@ The layers of ``mcnkit``, bottom to top (a module may import its own layer and t
 
 0. **base**: ``mcnkit`` (the package: its version), ``types``, ``geometry``, ``grid``, and the helpers that
    import no other mcnkit module: ``_lazy`` (lazy package exports), ``locations`` (where data lives),
-   ``threads`` (torch thread count), ``outputs`` (writing result files safely), ``exits`` (exit codes and the
-   one-line report of bad input that every command uses).
+   ``threads`` (torch thread count), ``heap`` (big freed arrays returned to the OS), ``outputs`` (writing result
+   files safely), ``exits`` (exit codes and the one-line report of bad input that every command uses).
 1. **algorithms and data**: ``io`` (log readers and writers), ``slam`` (grid FastSLAM), ``completion`` (the
    networks, training, sampling, scores), ``datasets`` (floor plans, HouseExpo, training pairs), ``metrics``
    (trajectory errors, TUM files).
@@ -29,7 +29,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "mcnkit"
 
 LAYERS: dict[str, int] = {
     "mcnkit": 0, "mcnkit._lazy": 0, "mcnkit.types": 0, "mcnkit.geometry": 0, "mcnkit.grid": 0,
-    "mcnkit.locations": 0, "mcnkit.threads": 0, "mcnkit.outputs": 0, "mcnkit.exits": 0,
+    "mcnkit.locations": 0, "mcnkit.threads": 0, "mcnkit.heap": 0, "mcnkit.outputs": 0, "mcnkit.exits": 0,
     "mcnkit.io": 1, "mcnkit.slam": 1, "mcnkit.completion": 1, "mcnkit.datasets": 1, "mcnkit.metrics": 1,
     "mcnkit.mcn": 2, "mcnkit.mcn_config": 2, "mcnkit.sim": 2,
     "mcnkit.drive": 3, "mcnkit.sinks": 3, "mcnkit.viz": 3, "mcnkit.plots": 3, "mcnkit.widgets": 3,

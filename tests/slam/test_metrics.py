@@ -71,3 +71,36 @@ def test_tum_round_trip_and_relations_file(tmp_path: Path) -> None:
     rel = read_relations(tmp_path / "r.relations")
     assert rel.t1_ns.tolist() == [1134864645903210000]
     np.testing.assert_allclose(rel.delta, [[0.31293, 0.02935, 0.24198]])
+
+
+def _box_scans(poses: np.ndarray, half_m: float = 3.025) -> list:
+    """Noise-free scans (360 beams) of the inside of a square room of side 2·half_m centred on the origin."""
+    from mcnkit.types import LidarSpec, Scan
+
+    spec = LidarSpec(-np.pi, np.radians(1.0), 360, 0.1, 30.0)
+    scans = []
+    for x, y, yaw in poses:
+        a = yaw + spec.angles_rad
+        c, s = np.cos(a), np.sin(a)
+        with np.errstate(divide="ignore"):
+            tx = np.where(c > 0, (half_m - x) / c, (-half_m - x) / c)
+            ty = np.where(s > 0, (half_m - y) / s, (-half_m - y) / s)
+        scans.append(Scan(np.minimum(np.abs(tx), np.abs(ty)).astype(np.float32), spec))
+    return scans
+
+
+def test_hit_cells_are_fewest_at_the_poses_the_scans_were_taken_from() -> None:
+    from mcnkit.metrics import hit_cells
+
+    rng = np.random.default_rng(0)
+    truth = np.column_stack([rng.uniform(-2, 2, 40), rng.uniform(-2, 2, 40), rng.uniform(-np.pi, np.pi, 40)])
+    scans = _box_scans(truth)
+    exact = hit_cells(scans, truth)
+    # a bent trajectory (0.5° more heading per scan) smears the walls over more cells; so does 5 cm of noise
+    bent = truth + np.column_stack([np.zeros(40), np.zeros(40), np.radians(0.5) * np.arange(40)])
+    noisy = truth + np.column_stack([rng.normal(0, 0.05, (40, 2)), np.zeros(40)])
+    assert exact < 0.6 * hit_cells(scans, bent) and exact < 0.6 * hit_cells(scans, noisy)
+    # the walls alone (x, y = ±3.025 m: mid-cell) hold 4 × 122 cells; the true trajectory hits no more than those
+    assert exact <= 4 * 122
+    with pytest.raises(Exception, match="one pose per scan"):
+        hit_cells(scans, truth[:-1])
