@@ -193,7 +193,7 @@ class SlamOutputs:
         if slam.n_scans == 0:
             return
         with staged_folder(self.out) as tmp:
-            for name, mode in [("trajectory", "tracked"), ("trajectory_online", "online"),
+            for name, mode in [("trajectory", "refined"), ("trajectory_tracked", "tracked"), ("trajectory_online", "online"),
                                ("trajectory_gmapping", "gmapping"), ("trajectory_matched", "matched"),
                                ("trajectory_smoothed", "smoothed")]:
                 write_tum(tmp / f"{name}.tum", slam.trajectory(mode=mode))

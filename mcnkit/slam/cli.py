@@ -5,9 +5,12 @@ The dispatcher (``mcnkit/cli.py``) wires it in with :func:`add_slam_parser`, whi
 
 Outputs of ``mcnkit slam LOG --out DIR``:
 
-* ``trajectory.tum``: the best particle's pose at every scan: its corrected poses at the filter updates (its
-  ancestry, as gmapping reports it) and, in between, that pose moved by the scan-to-map tracking the filter did
-  online (``SlamConfig.track_every_scan``: changes no weight or map) instead of by raw odometry;
+* ``trajectory.tum``: ``trajectory_tracked.tum`` refined offline, every scan moved onto the map of all the other
+  scans, later ones included (``mode="refined"`` of :meth:`mcnkit.slam.FastSlam.trajectory`,
+  :mod:`mcnkit.slam.refine`);
+* ``trajectory_tracked.tum``: the best particle's pose at every scan: its corrected poses at the filter updates
+  (its ancestry, as gmapping reports it) and, in between, that pose moved by the scan-to-map tracking the filter
+  did online (``SlamConfig.track_every_scan``: changes no weight or map) instead of by raw odometry;
 * ``trajectory_online.tum``: strictly causal — at every scan the pose of the particle that was best *then*;
 * ``trajectory_gmapping.tum``: gmapping's convention for the same run, the last corrected pose plus the
   odometry change since (the convention the gmapping anchors were measured with);
@@ -35,7 +38,9 @@ __all__ = ["add_slam_parser", "run_slam"]
 
 _DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robot log and write into --out:
 
-  trajectory.tum            the best particle's pose at every scan (corrected at the filter updates,
+  trajectory.tum            trajectory_tracked.tum refined offline: every scan moved onto the map of all
+                            the other scans, later ones included
+  trajectory_tracked.tum    the best particle's pose at every scan (corrected at the filter updates,
                             tracked by scan matching in between)
   trajectory_online.tum     at every scan the pose of the particle that was best then (causal)
   trajectory_gmapping.tum   gmapping's convention: last corrected pose plus the odometry since

@@ -46,6 +46,7 @@ from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.motion import MotionNoise, motion_std, sample_motion
 from mcnkit.slam.proposal import proposal_covariance
 from mcnkit.slam.raycast import ray_cast_counts, ray_cast_strips
+from mcnkit.slam.refine import REFINE_RANGE_M, refine_poses
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.slam.widesearch import tracking_grid, wide_match
@@ -378,9 +379,12 @@ class FastSlam:
           pose minus the odometry still to come, in proportion to the motion (metres + radians) already made
           in the interval, so each correction is spread over its interval instead of jumping;
         * ``"matched"`` (offline): the smoothed pose of every scan hill-climbed against the particle's final
-          map (the update scans included), as gmapping matches at updates, without touching weights or maps.
+          map (the update scans included), as gmapping matches at updates, without touching weights or maps;
+        * ``"refined"`` (offline): the tracked poses with every scan moved onto the map of all the other scans,
+          later ones included (:func:`mcnkit.slam.refine.refine_poses`); what ``mcnkit slam`` writes as
+          ``trajectory.tum``.
         """
-        modes = ("tracked", "online", "gmapping", "smoothed", "matched")
+        modes = ("tracked", "online", "gmapping", "smoothed", "matched", "refined")
         if mode not in modes:
             raise ValueError(f"mode must be one of {modes}, got {mode!r}")
         if mode == "online":
@@ -389,9 +393,10 @@ class FastSlam:
             return Trajectory(np.asarray(self._scan_stamps, dtype=np.int64), np.asarray(self._scan_online))
         upd = self.update_poses(particle)
         k = np.asarray(self._scan_update, dtype=np.int64)
-        if mode == "tracked":
+        if mode in ("tracked", "refined"):
             stamps = np.asarray(self._scan_stamps, dtype=np.int64)
-            return Trajectory(stamps, compose(upd[k], np.asarray(self._scan_tracked)))
+            tracked = compose(upd[k], np.asarray(self._scan_tracked))
+            return Trajectory(stamps, self._refine(tracked) if mode == "refined" else tracked)
         odom = np.asarray(self._scan_odom)
         upd_odom = np.asarray(self._update_odom)
         poses = compose(upd[k], relative(upd_odom[k], odom))
@@ -413,6 +418,16 @@ class FastSlam:
         if mode == "matched" and self._lidar is not None:
             poses = self._match_scans(self.best_index if particle is None else particle, poses)
         return Trajectory(np.asarray(self._scan_stamps, dtype=np.int64), poses)
+
+    def _refine(self, poses: F64) -> F64:
+        lidar = self._lidar
+        if lidar is None:
+            return poses
+        max_range, usable = self._ranges(lidar)
+        laser = lidar.base_to_laser.as_array()
+        returns = [beam_points(r, lidar.angles_rad, laser, max_range, min(usable, REFINE_RANGE_M), 0.0)[0]
+                   for r in self._scan_ranges]
+        return refine_poses(poses, returns, self.config.resolution_m)
 
     def _match_scans(self, particle: int, poses: F64) -> F64:
         lidar = self._lidar

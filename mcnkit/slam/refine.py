@@ -1,0 +1,89 @@
+"""Offline refinement of a finished trajectory: every scan matched against the map of all the *other* scans.
+
+The filter places each scan against a map built from the scans before it; once the run is over, every scan can
+also be checked against the scans that came after it.  :func:`refine_poses` does so in ``passes`` rounds.  In each
+round the scans are placed at their current poses and their returns counted per cell; the scans go in blocks of
+``block`` consecutive ones, and each block is matched against the cells hit by every scan *outside* it (the whole
+map's counts minus the block's own), so no scan is pulled onto its own returns or its immediate neighbours'.  Each
+scan then moves by Gauss-Newton on that likelihood field (:func:`mcnkit.slam.likelihood.refine_match`: kept only
+if it scores better, and by at most ``max_shift_m``).  All blocks of a round see the same poses, so the result
+does not depend on the order of the blocks.
+
+Measured with ``benchmarks/reference_consistency.py`` and ``benchmarks/bench_buildings.py`` (see the README):
+it lowers the ATE on every Radish building and the MIT CSAIL relations error, and it makes the scans draw thinner
+walls; it is not a loop closer (a scan is moved by at most ``max_shift_m`` per round).
+
+Memory stays bounded on large maps: the cells are kept as one sorted array of the hit cells (not a dense grid), and
+each block's likelihood field covers only the block's reach.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.slam.correlative import likelihood_grid
+from mcnkit.slam.likelihood import refine_match
+
+__all__ = ["REFINE_RANGE_M", "refine_poses"]
+
+F64 = NDArray[np.float64]
+
+REFINE_RANGE_M = 20.0
+"""Returns farther than this are left out of the refinement: past 20 m a 0.5° beam spacing spreads neighbouring
+end points by more than 0.17 m, 3.5 σ of the likelihood field's 0.05 m."""
+
+
+def refine_poses(poses: F64, returns_base: Sequence[F64], resolution_m: float, *, passes: int = 3, block: int = 7,
+                 sigma_m: float = 0.05, max_shift_m: float = 0.3) -> F64:
+    """The poses (N, 3) moved, scan by scan, onto the likelihood field of the other scans' returns (see the module).
+
+    Args:
+        poses: one base pose per scan, in log order.
+        returns_base: per scan, its returns (M, 2) in the base frame (M may be 0).
+        resolution_m: cell size of the likelihood field.
+        passes, block, sigma_m, max_shift_m: rounds, scans left out together, field width, largest move per round.
+    """
+    poses = np.array(poses, dtype=np.float64, copy=True)
+    n = len(poses)
+    if n != len(returns_base):
+        raise ValueError(f"{n} poses but {len(returns_base)} scans")
+    sizes = np.array([len(r) for r in returns_base], dtype=np.int64)
+    if n < 2 * block or sizes.sum() == 0:
+        return poses
+    owner = np.repeat(np.arange(n, dtype=np.int32), sizes)
+    base = np.concatenate([np.asarray(r, np.float64).reshape(-1, 2) for r in returns_base])
+    bx, by = np.ascontiguousarray(base[:, 0]), np.ascontiguousarray(base[:, 1])
+    del base
+    reach = float(np.sqrt((bx**2 + by**2).max())) + max_shift_m + 1.0
+    for _ in range(passes):
+        c, s = np.cos(poses[:, 2])[owner], np.sin(poses[:, 2])[owner]
+        ix = np.floor((poses[owner, 0] + c * bx - s * by) / resolution_m).astype(np.int64)
+        iy = np.floor((poses[owner, 1] + s * bx + c * by) / resolution_m).astype(np.int64)
+        del c, s
+        x0, y0 = int(ix.min()), int(iy.min())
+        height = int(iy.max()) - y0 + 1
+        cells, inverse, counts = np.unique((ix - x0) * height + (iy - y0), return_inverse=True, return_counts=True)
+        del ix, iy
+        centres = (np.column_stack([cells // height + x0, cells % height + y0]) + 0.5) * resolution_m
+        moved = poses.copy()
+        starts = np.searchsorted(owner, np.arange(0, n, block))
+        for b, b0 in enumerate(range(0, n, block)):
+            b1 = min(b0 + block, n)
+            lo, hi = starts[b], (starts[b + 1] if b + 1 < len(starts) else len(owner))
+            own, own_counts = np.unique(inverse[lo:hi], return_counts=True)
+            others = np.ones(len(cells), bool)
+            others[own[counts[own] == own_counts]] = False  # cells only this block hit
+            x_lo, y_lo = poses[b0:b1, :2].min(axis=0) - reach
+            x_hi, y_hi = poses[b0:b1, :2].max(axis=0) + reach
+            others &= (centres[:, 0] >= x_lo) & (centres[:, 0] <= x_hi) & (centres[:, 1] >= y_lo) & (centres[:, 1] <= y_hi)
+            if np.count_nonzero(others) < 50:
+                continue
+            grid = likelihood_grid(centres[others], resolution_m, sigma_m, 1.0, depth=0)
+            for k in range(b0, b1):
+                if sizes[k] >= 10:
+                    moved[k] = refine_match(grid, returns_base[k], poses[k], max_shift_m).pose
+        poses = moved
+    return poses
