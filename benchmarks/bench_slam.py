@@ -2,9 +2,9 @@
 
 Runs, each in its own subprocess (so CPU time and peak RSS are the SLAM run's own):
 
-* MIT CSAIL raw log, 30 particles, 0.05 m cells, seeds 0 1 2: Kümmerle relations error of the best
-  particle's trajectory (gmapping's convention: last corrected pose + odometry change between updates)
-  and of the smoothed trajectory; CPU s, wall s, peak RSS, filter updates;
+* MIT CSAIL raw log, 30 particles, 0.05 m cells, seeds 0 1 2: Kümmerle relations error of every trajectory
+  ``mcnkit slam`` writes (``trajectory.tum``, refined offline, is the one the targets judge); CPU s, wall s,
+  peak RSS, filter updates;
 * Intel lab (raw odometry rebuilt from the corrected log): ATE / RPE against the corrected poses;
 * DP-SLAM loop5: loop closure, measured as the registration of the last scans against a map made only of
   the first scans (the corridor the loop starts in), from the SLAM poses: a closed loop needs ~no correction.
@@ -124,13 +124,14 @@ def main() -> int:
     report: dict = {"gmapping_anchor": GMAPPING, "mit_csail": []}
     print("MIT CSAIL, 30 particles, 0.05 m (gmapping C++: 0.047-0.049 m, 2.9-3.0 deg, 39.7-41.1 s CPU, 85-99 MB)")
     print("relations error (mean ± std) of five trajectories from the same run:")
-    print("  tracked  = trajectory.tum: the best particle's corrected poses at updates (its ancestry, as gmapping")
+    print("  refined  = trajectory.tum: the tracked trajectory with every scan moved onto the map of all the others")
+    print("  tracked  = trajectory_tracked.tum: the best particle's corrected poses at updates (its ancestry, as gmapping")
     print("             reports them) and, between updates, the scan-by-scan tracking done online against its map")
     print("  online   = strictly causal: at every scan the pose of the particle that was best at that moment")
     print("  gmapping = last corrected pose + odometry between updates (the convention of the gmapping anchor)")
     print("  offline: smoothed = each correction spread over its interval; matched = every scan matched to the final map")
-    print(" seed | tracked: m / deg | online | gmapping | smoothed | matched | CPU s | wall s | RSS MB | updates")
-    kinds = {"tracked": "trajectory.tum", "online": "trajectory_online.tum", "gmapping": "trajectory_gmapping.tum",
+    print(" seed | refined: m / deg | tracked | online | gmapping | smoothed | matched | CPU s | wall s | RSS MB | updates")
+    kinds = {"refined": "trajectory.tum", "tracked": "trajectory_tracked.tum", "online": "trajectory_online.tum", "gmapping": "trajectory_gmapping.tum",
              "smoothed": "trajectory_smoothed.tum", "matched": "trajectory_matched.tum"}
     for seed in a.seeds:
         out = work / f"mit_{seed}"
@@ -153,8 +154,8 @@ def main() -> int:
         r_ = [r[f"relations_{k}"]["rotation_mean_deg"] for r in rows]
         print(f" {k:9s}: translation {min(t):.4f}-{max(t):.4f} m, rotation {min(r_):.2f}-{max(r_):.2f} deg")
     cpu = [r["process_cpu_s"] for r in rows]
-    worst_t = max(r["relations_tracked"]["translation_mean_m"] for r in rows)
-    worst_r = max(r["relations_tracked"]["rotation_mean_deg"] for r in rows)
+    worst_t = max(r["relations_refined"]["translation_mean_m"] for r in rows)
+    worst_r = max(r["relations_refined"]["rotation_mean_deg"] for r in rows)
     report["targets"] = {
         "translation_m<=0.050": worst_t <= 0.050, "rotation_deg<=3.0": worst_r <= 3.0,
         "cpu_s<=40": max(cpu) <= 40.0, "peak_rss_mb<=300": max(r["peak_rss_mb"] for r in rows) <= 300.0,
@@ -174,7 +175,8 @@ def main() -> int:
             gt = reader.ground_truth()
         assert gt is not None
         intel_row: dict = {**s}
-        for name in ("trajectory", "trajectory_online", "trajectory_gmapping", "trajectory_matched", "trajectory_smoothed"):
+        for name in ("trajectory", "trajectory_tracked", "trajectory_online", "trajectory_gmapping", "trajectory_matched",
+                     "trajectory_smoothed"):
             est = read_tum(work / "intel" / f"{name}.tum")
             intel_row[name] = {
                 "ate": absolute_trajectory_error(est, gt).as_dict(),

@@ -6,7 +6,9 @@ round the scans are placed at their current poses and their returns counted per 
 ``block`` consecutive ones, and each block is matched against the cells hit by every scan *outside* it (the whole
 map's counts minus the block's own), so no scan is pulled onto its own returns or its immediate neighbours'.  Each
 scan then moves by Gauss-Newton on that likelihood field (:func:`mcnkit.slam.likelihood.refine_match`: kept only
-if it scores better, and by at most ``max_shift_m``).  All blocks of a round see the same poses, so the result
+if it scores better, and by at most ``max_shift_m``), and only along the directions the scan pins down (the
+eigen-directions of its match information, each scaled by its share of the strongest: a scan in a corridor is not
+slid along the axis by a flat field's noise).  All blocks of a round see the same poses, so the result
 does not depend on the order of the blocks.
 
 Measured with ``benchmarks/reference_consistency.py`` and ``benchmarks/bench_buildings.py`` (see the README):
@@ -24,8 +26,9 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from mcnkit.slam.correlative import likelihood_grid
+from mcnkit.slam.correlative import LikelihoodGrid, likelihood_grid, thin_points
 from mcnkit.slam.likelihood import refine_match
+from mcnkit.slam.proposal import match_information
 
 __all__ = ["REFINE_RANGE_M", "refine_poses"]
 
@@ -34,6 +37,18 @@ F64 = NDArray[np.float64]
 REFINE_RANGE_M = 20.0
 """Returns farther than this are left out of the refinement: past 20 m a 0.5° beam spacing spreads neighbouring
 end points by more than 0.17 m, 3.5 σ of the likelihood field's 0.05 m."""
+
+
+def _pinned_down(grid: LikelihoodGrid, points_base: F64, old: F64, new: F64) -> F64:
+    """The move ``old`` -> ``new`` kept only along the directions the scan pins down: each eigen-direction of the
+    translation block of the match information scaled by its share of the strongest one (along a corridor's axis,
+    ~0: a scan there is not slid along the corridor by a flat field's numerical noise)."""
+    info = match_information(grid, points_base, new, 1.0)
+    vals, vecs = np.linalg.eigh(info[:2, :2])
+    if vals[-1] <= 0:
+        return np.asarray(old, np.float64).copy()
+    shift = vecs @ (np.clip(vals / vals[-1], 0.0, 1.0) * (vecs.T @ (new[:2] - old[:2])))
+    return np.array([old[0] + shift[0], old[1] + shift[1], new[2]])
 
 
 def refine_poses(poses: F64, returns_base: Sequence[F64], resolution_m: float, *, passes: int = 3, block: int = 7,
@@ -50,6 +65,8 @@ def refine_poses(poses: F64, returns_base: Sequence[F64], resolution_m: float, *
     n = len(poses)
     if n != len(returns_base):
         raise ValueError(f"{n} poses but {len(returns_base)} scans")
+    # one return per cell and scan: a dense scan's neighbouring beams add memory, not information
+    returns_base = [thin_points(np.asarray(r, np.float64).reshape(-1, 2), resolution_m) for r in returns_base]
     sizes = np.array([len(r) for r in returns_base], dtype=np.int64)
     if n < 2 * block or sizes.sum() == 0:
         return poses
@@ -84,6 +101,7 @@ def refine_poses(poses: F64, returns_base: Sequence[F64], resolution_m: float, *
             grid = likelihood_grid(centres[others], resolution_m, sigma_m, 1.0, depth=0)
             for k in range(b0, b1):
                 if sizes[k] >= 10:
-                    moved[k] = refine_match(grid, returns_base[k], poses[k], max_shift_m).pose
+                    found = refine_match(grid, returns_base[k], poses[k], max_shift_m).pose
+                    moved[k] = _pinned_down(grid, returns_base[k], poses[k], found)
         poses = moved
     return poses
