@@ -246,7 +246,8 @@ def main() -> int:
         f" Seeds {', '.join(map(str, args.seeds))}.\n\n{table}\n\n"
         "*Hit cells estimate / reference*: cells hit by the scans' returns (up to 20 m) placed on the estimate, "
         "over the same on the reference poses (`mcnkit.metrics.hit_cells`). Under 1: the scans draw thinner walls "
-        "on the estimate than on the reference, i.e. they agree better with the estimate.\n"
+        "on the estimate than on the reference. `trajectory.tum` is refined against the scans and the reference is not: "
+        "`benchmarks/reference_consistency.py` refines both alike for a fair comparison.\n"
     )
     (args.out / "buildings.json").write_text(json.dumps(
         {"command": "mcnkit slam LOG --particles 30 --resolution 0.05 --seed S --out DIR --no-progress",
