@@ -123,7 +123,7 @@ def main() -> int:
     relations = read_relations(a.data / "reallab" / "mit-csail" / "mit-csail.relations")
     report: dict = {"gmapping_anchor": GMAPPING, "mit_csail": []}
     print("MIT CSAIL, 30 particles, 0.05 m (gmapping C++: 0.047-0.049 m, 2.9-3.0 deg, 39.7-41.1 s CPU, 85-99 MB)")
-    print("relations error (mean ± std) of five trajectories from the same run:")
+    print("relations error (mean ± std) of the six trajectories of the same run:")
     print("  refined  = trajectory.tum: the tracked trajectory with every scan moved onto the map of all the others")
     print("  tracked  = trajectory_tracked.tum: the best particle's corrected poses at updates (its ancestry, as gmapping")
     print("             reports them) and, between updates, the scan-by-scan tracking done online against its map")
