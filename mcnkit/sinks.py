@@ -193,7 +193,10 @@ class SlamOutputs:
         if slam.n_scans == 0:
             return
         with staged_folder(self.out) as tmp:
-            for name, mode in [("trajectory", "refined"), ("trajectory_tracked", "tracked"), ("trajectory_online", "online"),
+            # stopped by a signal, the user waits: the refinement (seconds on long logs) is left out
+            signalled = outcome.stopped_by in ("SIGINT", "SIGTERM")
+            main_mode = "tracked" if signalled else "refined"
+            for name, mode in [("trajectory", main_mode), ("trajectory_tracked", "tracked"), ("trajectory_online", "online"),
                                ("trajectory_gmapping", "gmapping"), ("trajectory_matched", "matched"),
                                ("trajectory_smoothed", "smoothed")]:
                 write_tum(tmp / f"{name}.tum", slam.trajectory(mode=mode))
@@ -202,6 +205,7 @@ class SlamOutputs:
             self.summary = {
                 **self.info,
                 **_stop_fields(outcome),
+                "trajectory": main_mode,  # what trajectory.tum holds (see mcnkit.slam.cli)
                 "loop_closures": slam.loops.stats.accepted,
                 "loop_corrections": slam.n_loop_corrections,
                 "scans": slam.n_scans,

@@ -7,7 +7,8 @@ Outputs of ``mcnkit slam LOG --out DIR``:
 
 * ``trajectory.tum``: ``trajectory_tracked.tum`` refined offline, every scan moved onto the map of all the other
   scans, later ones included (``mode="refined"`` of :meth:`mcnkit.slam.FastSlam.trajectory`,
-  :mod:`mcnkit.slam.refine`);
+  :mod:`mcnkit.slam.refine`); after Ctrl-C or SIGTERM the refinement is skipped and it holds the tracked
+  trajectory (``summary.json``: ``"trajectory": "tracked"``);
 * ``trajectory_tracked.tum``: the best particle's pose at every scan: its corrected poses at the filter updates
   (its ancestry, as gmapping reports it) and, in between, that pose moved by the scan-to-map tracking the filter
   did online (``SlamConfig.track_every_scan``: changes no weight or map) instead of by raw odometry;
@@ -60,7 +61,7 @@ run's summary.json, which holds the full configuration, so
 'mcnkit slam LOG --config OLD/summary.json --out NEW' repeats a run exactly.
 
 Ctrl-C or SIGTERM stops after the scan at hand: --out and --rrd get the results so far (summary.json says
-"interrupted": true), exit code 130 / 143.  Outputs never replace the log; an existing --rrd, or an --out
+"interrupted": true; trajectory.tum is then the tracked one, not refined), exit code 130 / 143.  Outputs never replace the log; an existing --rrd, or an --out
 folder that is not empty, is replaced only with --overwrite."""
 
 

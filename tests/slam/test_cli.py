@@ -44,6 +44,7 @@ def test_slam_writes_outputs_and_eval_reads_them(tmp_path: Path, capsys: pytest.
     assert _run(["slam", str(log), "--particles", "4", "--out", str(out), "--no-progress"]) == 0
     for name in (
         "trajectory.tum",
+        "trajectory_tracked.tum",
         "trajectory_online.tum",
         "trajectory_gmapping.tum",
         "trajectory_matched.tum",
@@ -57,6 +58,9 @@ def test_slam_writes_outputs_and_eval_reads_them(tmp_path: Path, capsys: pytest.
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scans"] == 30 and summary["filter_updates"] >= 2
     assert {"cpu_s", "wall_s", "peak_rss_mb", "final_neff"} <= summary.keys()
+    assert summary["trajectory"] == "refined"  # trajectory.tum: the tracked one refined offline, one row per scan
+    assert len((out / "trajectory.tum").read_text().splitlines()) == len(
+        (out / "trajectory_tracked.tum").read_text().splitlines())
     assert (out / "map.pgm").read_bytes().startswith(b"P5\n")
     assert "resolution: 0.05" in (out / "map.yaml").read_text()
     rel = tmp_path / "r.relations"
