@@ -196,11 +196,14 @@ class SlamOutputs:
             # stopped by a signal, the user waits: the refinement (seconds on long logs) is left out
             signalled = outcome.stopped_by in ("SIGINT", "SIGTERM")
             main_mode = "tracked" if signalled else "refined"
-            for name, mode in [("trajectory", main_mode), ("trajectory_tracked", "tracked"), ("trajectory_online", "online"),
+            main = slam.trajectory(mode=main_mode)
+            write_tum(tmp / "trajectory.tum", main)
+            for name, mode in [("trajectory_tracked", "tracked"), ("trajectory_online", "online"),
                                ("trajectory_gmapping", "gmapping"), ("trajectory_matched", "matched"),
                                ("trajectory_smoothed", "smoothed")]:
                 write_tum(tmp / f"{name}.tum", slam.trajectory(mode=mode))
-            spec, strips = slam.best_map_strips()
+            # the map is cast from trajectory.tum's poses at the update scans: the map and the trajectory agree
+            spec, strips = slam.best_map_strips(poses=main.poses[slam.update_scans()])
             write_map_strips(tmp, spec, strips, slam.config.occ_thresh)
             self.summary = {
                 **self.info,

@@ -20,7 +20,8 @@ Outputs of ``mcnkit slam LOG --out DIR``:
   later information) and ``trajectory_smoothed.tum`` (each correction spread over the interval before it);
 * ``run.rrd`` with ``--rrd``: every step recorded for Rerun (see :mod:`mcnkit.viz`), the configuration at
   ``/config``; ``--connect [URL]`` / ``--serve`` stream the same live (see :mod:`mcnkit.recording`);
-* ``map.pgm`` + ``map.yaml`` (ROS ``map_server``: occupied 0, free 254, unknown 205), ``map.png``;
+* ``map.pgm`` + ``map.yaml`` (ROS ``map_server``: occupied 0, free 254, unknown 205), ``map.png``: the update
+  scans ray-cast from ``trajectory.tum``'s poses, so map and trajectory agree;
 * ``summary.json``: scans, filter updates, resamplings, cpu_s, wall_s, peak_rss_mb, final Neff, ...
 """
 
@@ -47,7 +48,8 @@ _DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robo
   trajectory_gmapping.tum   gmapping's convention: last corrected pose plus the odometry since
   trajectory_matched.tum    every scan matched against the final map (uses later information)
   trajectory_smoothed.tum   each correction spread over the interval before it
-  map.pgm, map.yaml         the best particle's map (ROS map_server: occupied 0, free 254, unknown 205), map.png
+  map.pgm, map.yaml         the update scans cast from trajectory.tum's poses (ROS map_server: occupied 0,
+                            free 254, unknown 205), map.png
   summary.json              scans, filter updates, resamplings, CPU and wall time, peak memory, the configuration
 
 With --rrd every step is also recorded for Rerun; --connect streams it live to a running viewer (start one

@@ -459,15 +459,25 @@ class FastSlam:
         )
         return counts_to_grid(spec, hits, passes, self.config.occ_thresh)
 
-    def best_map_strips(self, particle: int | None = None, strip_cells: int = 512) -> tuple[GridSpec, Iterator[
+    def update_scans(self) -> NDArray[np.int64]:
+        """The index (K,) of the scan at which each filter update happened (into :meth:`trajectory`'s poses)."""
+        k = np.asarray(self._scan_update, dtype=np.int64)
+        return np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(k) else np.zeros(0, np.int64)
+
+    def best_map_strips(self, particle: int | None = None, strip_cells: int = 512, *,
+                        poses: F64 | None = None) -> tuple[GridSpec, Iterator[
             tuple[int, NDArray[np.uint16], NDArray[np.uint16]]]]:
         """:meth:`best_map` as hit / pass count strips from the top down (bounded memory on large maps; see
-        :func:`mcnkit.slam.raycast.ray_cast_strips`)."""
+        :func:`mcnkit.slam.raycast.ray_cast_strips`).  ``poses``: the base poses (K, 3) to cast the update scans
+        from instead of the particle's corrected ones (e.g. the refined trajectory at :meth:`update_scans`)."""
         if self._lidar is None or not self.n_updates:
             raise RuntimeError("no scan processed yet")
         lidar = self._lidar
         max_range, usable = self.beam_limits()
-        laser = compose(self.update_poses(particle), lidar.base_to_laser.as_array())
+        base = self.update_poses(particle) if poses is None else np.asarray(poses, np.float64)
+        if base.shape != (self.n_updates, 3):
+            raise ValueError(f"poses has shape {base.shape}, the map needs one pose per update: ({self.n_updates}, 3)")
+        laser = compose(base, lidar.base_to_laser.as_array())
         return ray_cast_strips(laser, np.stack(self._update_ranges), lidar.angles_rad, max_range, usable,
                                self.config.resolution_m, strip_cells)
 

@@ -186,3 +186,19 @@ def test_odometry_that_says_forward_while_the_robot_backs_up_is_caught_by_the_wi
         est = slam.trajectory().poses
         errors[wide] = float(np.hypot(*(est[-1, :2] - truth[-1][:2])))
     assert errors[True] < 0.2 < errors[False]
+
+
+def test_refined_trajectory_stays_on_the_path_and_the_map_can_be_cast_from_it(world_run: tuple) -> None:
+    truth, _, slam, steps = world_run
+    tracked, refined = slam.trajectory(mode="tracked").poses, slam.trajectory(mode="refined").poses
+    err_tracked = np.hypot(*(tracked[:, :2] - truth[:, :2]).T)
+    err_refined = np.hypot(*(refined[:, :2] - truth[:, :2]).T)
+    assert err_refined.mean() <= err_tracked.mean() + 0.005 and err_refined.max() < 0.25
+    # the update scans index the trajectory where the filter updated: the tracked poses there are the update poses
+    at_updates = slam.update_scans()
+    assert at_updates.tolist() == [s.index for s in steps if s.updated]
+    np.testing.assert_allclose(tracked[at_updates], slam.update_poses(), atol=1e-9)
+    _spec, strips = slam.best_map_strips(poses=refined[at_updates])
+    assert sum(hits.sum() for _, hits, _ in strips) > 0
+    with pytest.raises(ValueError, match="one pose per update"):
+        slam.best_map_strips(poses=refined)
