@@ -71,6 +71,11 @@ class Outcome:
         """True when the run ended before the frames did."""
         return self.stopped_by is not None
 
+    @property
+    def signalled(self) -> bool:
+        """True when SIGINT or SIGTERM stopped the run (a user waiting for the results, not a damaged log)."""
+        return self.stopped_by in ("SIGINT", "SIGTERM")
+
 
 class Sink(Protocol):
     """A consumer of steps: a recording, output files, a progress bar, a notebook callback."""

@@ -194,8 +194,7 @@ class SlamOutputs:
             return
         with staged_folder(self.out) as tmp:
             # stopped by a signal, the user waits: the refinement (seconds on long logs) is left out
-            signalled = outcome.stopped_by in ("SIGINT", "SIGTERM")
-            main_mode = "tracked" if signalled else "refined"
+            main_mode = "tracked" if outcome.signalled else "refined"
             main = slam.trajectory(mode=main_mode)
             write_tum(tmp / "trajectory.tum", main)
             for name, mode in [("trajectory_tracked", "tracked"), ("trajectory_online", "online"),

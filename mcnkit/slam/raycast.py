@@ -182,19 +182,7 @@ def ray_cast_counts(
     ``max_usable_range_m`` clear space up to that range and mark no hit (gmapping's rule).  The grid covers the
     lasers and their (clipped) end points, so its size is bounded by the path and the usable range.
     """
-    r = np.asarray(ranges_m)
-    lasers = np.asarray(laser_poses, np.float64)
-    ends = [scan_end_points(lx, ly, lt, r[k], angles_rad, max_range_m, max_usable_range_m)
-            for k, (lx, ly, lt) in enumerate(lasers)]
-    allx = np.concatenate([e[0] for e in ends] + [lasers[:, 0]])
-    ally = np.concatenate([e[1] for e in ends] + [lasers[:, 1]])
-    ix0 = math.floor((allx.min() - margin_m) / resolution_m)
-    iy0 = math.floor((ally.min() - margin_m) / resolution_m)
-    width = math.floor((allx.max() + margin_m) / resolution_m) - ix0 + 1
-    height = math.floor((ally.max() + margin_m) / resolution_m) - iy0 + 1
-    spec = GridSpec(resolution_m, ix0 * resolution_m, iy0 * resolution_m, width, height)
-    hits = np.zeros(spec.shape, np.uint16)
-    passes = np.zeros(spec.shape, np.uint16)
-    for (lx, ly, _lt), (ex, ey, hit) in zip(lasers, ends, strict=True):
-        _cast_strip(hits, passes, ix0, 0, resolution_m, lx, ly, ex, ey, hit, iy0)
+    spec, strips = ray_cast_strips(laser_poses, ranges_m, angles_rad, max_range_m, max_usable_range_m, resolution_m,
+                                   strip_cells=2**31 - 1, margin_m=margin_m)
+    _row0, hits, passes = next(strips)  # the whole grid is the one strip at row 0
     return spec, hits, passes
