@@ -17,6 +17,7 @@ Writes ``benchmarks/results/buildings/buildings.json``, ``buildings.md``, one ``
 seed-0 map with the estimate in green and the aligned reference in red) and ``contact_sheet.png``.
 
     .venv/bin/python benchmarks/bench_buildings.py [--seeds 0 1 2] [--only aces fr079] [--jobs 2]
+    .venv/bin/python benchmarks/bench_buildings.py --extra /path/seattle-corrected.log.gz --out /tmp/b
 """
 
 from __future__ import annotations
@@ -197,9 +198,17 @@ def main() -> int:
     parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     parser.add_argument("--jobs", type=int, default=2, help="runs in parallel (default 2: this machine's cores)")
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--extra", type=Path, nargs="+", default=[], metavar="LOG",
+                        help="more logs with a reference, scored like the others and named by their file (e.g. the "
+                             "other Radish corrected logs of github.com/acschaefer/ple, data/carmen: buildings this "
+                             "project was not developed on; use another --out to keep the committed results)")
     args = parser.parse_args()
     data = _data_dir(args.data)
-    names = args.only or list(BUILDINGS)
+    names = list(args.only or ([] if args.extra else BUILDINGS))  # --extra alone: just those
+    for log in args.extra:  # an absolute path: data / path is the path itself
+        name = log.name.split(".")[0].removesuffix("-corrected")
+        BUILDINGS[name] = (str(log.resolve()), None)
+        names.append(name)
     args.out.mkdir(parents=True, exist_ok=True)
     jobs = [(n, s) for n in names for s in args.seeds]
     with tempfile.TemporaryDirectory() as tmp:

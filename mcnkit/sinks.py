@@ -210,6 +210,7 @@ class SlamOutputs:
                 "trajectory": main_mode,  # what trajectory.tum holds (see mcnkit.slam.cli)
                 "loop_closures": slam.loops.stats.accepted,
                 "loop_corrections": slam.n_loop_corrections,
+                "unknown_motion_scans": slam.n_unknown_motion,  # the log held no odometry for them (Frame.odom_known)
                 "scans": slam.n_scans,
                 "filter_updates": slam.n_updates,
                 "resamplings": slam.n_resamples,

@@ -140,6 +140,10 @@ class Frame:
     stamp_ns: int
     scan: Scan
     odom: Pose2D
+    odom_known: bool = True
+    """False when the log holds no odometry for the motion since the previous frame (a gap in the odometry
+    stream, or a jump no robot makes): ``odom`` then repeats the previous pose, and the motion is *unknown*, not
+    zero (SLAM searches for it wide; see ``SlamConfig.unknown_motion_window_m``)."""
 
 
 @dataclass(frozen=True)

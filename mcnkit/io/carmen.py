@@ -369,23 +369,35 @@ def _is_corrected_variant(scans: list[_Scan], p: _Parsed, key: str) -> bool:
     return hits >= 0.9 * len(pairs)
 
 
-def _rebuild_raw_odometry(scans: list[_Scan], p: _Parsed, stamps: NDArray[np.int64]) -> tuple[NDArray[np.float64], int]:
-    """The raw odometry chain, and how many increments were a move no robot makes (damaged numbers: read as no
-    motion, so that one bad line does not move every pose after it)."""
+def _rebuild_raw_odometry(scans: list[_Scan], p: _Parsed,
+                          stamps: NDArray[np.int64]) -> tuple[NDArray[np.float64], int, NDArray[np.bool_]]:
+    """The raw odometry chain, how many increments were a move no robot makes (damaged numbers: read as unknown
+    motion, so that one bad line does not move every pose after it), and per scan whether the motion since the
+    scan before is known.
+
+    It is not where the gap between two scans holds no ODOM line but the re-anchoring one (the previous scan's
+    corrected pose itself) or none at all: those logs dropped the raw odometry there (Örebro, parts of Seattle),
+    so the robot's motion is unknown, not zero.  Damaged increments are unknown too."""
     corrected = np.asarray([s.pose for s in scans], dtype=np.float64)
     odom = np.empty_like(corrected)
     odom[0] = corrected[0] if np.isfinite(corrected[0]).all() else 0.0
+    known = np.ones(len(corrected), dtype=bool)
     bad = 0
     zero = Pose2D()
     for k in range(len(corrected) - 1):
         j = scans[k + 1].odom_index
         increment = relative(corrected[k], np.asarray(p.odom[j])) if j >= 0 else np.zeros(3)
-        if not (np.isfinite(increment).all()
-                and step_possible(int(stamps[k]), zero, int(stamps[k + 1]), Pose2D.from_array(increment))):
+        anchor_only = j == scans[k].odom_index + 1 and bool(np.all(np.abs(increment) < 1e-6))
+        if j <= scans[k].odom_index or anchor_only:
+            known[k + 1] = False
+            increment = np.zeros(3)
+        elif not (np.isfinite(increment).all()
+                  and step_possible(int(stamps[k]), zero, int(stamps[k + 1]), Pose2D.from_array(increment))):
             bad += 1
+            known[k + 1] = False
             increment = np.zeros(3)
         odom[k + 1] = compose(odom[k], increment)
-    return odom, bad
+    return odom, bad, known
 
 
 def _odometry_from_stream(path: Path, scans: list[_Scan], stamps: NDArray[np.int64], p: _Parsed,
@@ -462,11 +474,16 @@ class CarmenLog(LogReader):
             warn_skipped(path, problem)
         self._gt: Trajectory | None = None
         self._keywords: dict[str, int] | None = None
+        odom_known = np.ones(len(scans), dtype=bool)
         if self.format == "carmen" and _is_corrected_variant(scans, p, key):
             self.format = "carmen-corrected"
-            odom, bad = _rebuild_raw_odometry(scans, p, stamps)
+            odom, bad, odom_known = _rebuild_raw_odometry(scans, p, stamps)
             if bad:
-                warn_skipped(path, f"{bad} odometry increment(s) a robot cannot make (damaged numbers?) read as no motion")
+                warn_skipped(path, f"{bad} odometry increment(s) a robot cannot make (damaged numbers?) read as "
+                                   "unknown motion")
+            if gaps := int((~odom_known).sum()) - bad:
+                warn_skipped(path, f"no odometry between {gaps} of {len(scans) - 1} pairs of consecutive scans: "
+                                   "read as unknown motion (searched for by scan matching)")
             self._gt = Trajectory(stamps.copy(), np.asarray([s.pose for s in scans], dtype=np.float64))
         elif scans[0].odom is None:
             odom = _odometry_from_stream(path, scans, stamps, p, odom_stamps if odom_ok and problem is None else None)
@@ -475,6 +492,7 @@ class CarmenLog(LogReader):
         odom[:, 2] = wrap_angle(odom[:, 2])  # logs hold headings outside [-pi, pi)
         self._stamps = stamps
         self._odom = odom
+        self._odom_known = odom_known
         self._ranges = np.stack([s.ranges for s in scans])
         if n_bad := int((~np.isfinite(self._ranges)).sum()):  # CARMEN writes numbers: nan / inf are damage
             rows = int((~np.isfinite(self._ranges)).any(axis=1).sum())
@@ -537,8 +555,8 @@ class CarmenLog(LogReader):
 
     def _read_frames(self, skipped: Counter[str]) -> Iterator[Frame]:
         """Every scan read, in log order, with its odometry pose."""
-        for stamp, ranges, odom in zip(self._stamps, self._ranges, self._odom, strict=True):
-            yield Frame(int(stamp), Scan(ranges, self._spec), Pose2D.from_array(odom))
+        for stamp, ranges, odom, known in zip(self._stamps, self._ranges, self._odom, self._odom_known, strict=True):
+            yield Frame(int(stamp), Scan(ranges, self._spec), Pose2D.from_array(odom), bool(known))
 
     def ground_truth(self) -> Trajectory | None:
         """The corrected trajectory of a Radish corrected log (the laser poses on its scan lines)."""

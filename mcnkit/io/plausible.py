@@ -31,8 +31,10 @@ A step beyond that is resolved with the next ``LOOKAHEAD`` scans:
 * if one of them is again within reach of the last scan passed on, the scan was an outlier: dropped;
 * if they all follow on from it instead (the odometry jumped and stayed there: a reset, or one damaged
   increment of odometry that is rebuilt by chaining), the odometry is re-anchored: from that scan on, poses are
-  moved rigidly so that the jump becomes no motion at all (SLAM's scan matching finds the real one);
-* otherwise the scan is dropped.
+  moved rigidly so that the pose repeats across the jump, and that frame says its motion is unknown
+  (``Frame.odom_known`` False: SLAM's scan matching searches for the real one);
+* otherwise the scan is dropped (and when it carried unknown motion, so does the next frame, whose motion
+  now spans it).
 
 Poses are passed on bit for bit unless a re-anchoring happened.
 """
@@ -208,7 +210,7 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
             return None, "odometry a robot cannot reach"
         if rest and _chain([f, *rest], anchor):
             anchor.reanchor(last.odom, f.odom)
-            return _with_odom(f, last.odom), "reanchored"
+            return _with_odom(f, last.odom, known=False), "reanchored"  # the motion across the jump is unknown
         return None, "odometry a robot cannot reach"
 
     def release(f: Frame, rest: deque[Frame]) -> Frame | None:
@@ -216,16 +218,24 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
         out, what = decide(f, rest)
         if what is not None:
             counts[what] += 1
-        if out is not None:
-            last = out
-            passed += 1
+        if out is None:
+            if not f.odom_known and rest:  # its unknown motion is part of the next frame's
+                rest[0] = _with_odom(rest[0], rest[0].odom, known=False)
+            return None
+        last = out
+        passed += 1
         return out
+
+    unknown_before = False  # a frame dropped on arrival had unknown motion: so has the next one
 
     for f in frames:
         problem = per_frame(f)
         if problem is not None:
             counts[problem] += 1
+            unknown_before |= not f.odom_known
             continue
+        if unknown_before:
+            f, unknown_before = _with_odom(f, f.odom, known=False), False
         buf.append(f)
         if len(buf) > LOOKAHEAD:
             head = buf.popleft()
@@ -245,7 +255,7 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
     if dropped:
         parts.append("skipped scans: " + _summary(counts))
     if reanchored:
-        parts.append(f"odometry re-anchored after {reanchored} jump(s) a robot cannot make (read as no motion)")
+        parts.append(f"odometry re-anchored after {reanchored} jump(s) a robot cannot make (read as unknown motion)")
     if parts:
         warn_skipped(path, "; ".join(parts))
 
@@ -254,8 +264,9 @@ def _summary(counts: Counter[str]) -> str:
     return ", ".join(f"{n} ({why})" for why, n in counts.items() if n)
 
 
-def _with_odom(f: Frame, odom: Pose2D) -> Frame:
-    return f if odom is f.odom else Frame(f.stamp_ns, f.scan, odom)
+def _with_odom(f: Frame, odom: Pose2D, known: bool = True) -> Frame:
+    known = known and f.odom_known
+    return f if odom is f.odom and known == f.odom_known else Frame(f.stamp_ns, f.scan, odom, known)
 
 
 def _reachable(stamp: int, pose: Pose2D, g: Frame, anchor: _Anchor) -> bool:

@@ -70,6 +70,21 @@ class SlamConfig:
     """Odometry error in translation as a function of rotation [str]."""
     stt: float = 0.2
     """Odometry error in rotation as a function of rotation [stt]."""
+    motion_noise_from_log: bool = False
+    """Scale the four coefficients above down to what the log's own odometry shows (:class:`mcnkit.slam.motion.
+    NoiseScale`: the odometry increments against the scan-matched ones, over the last ``motion_noise_window``
+    scans): gmapping's values are per step, and a log that keeps one scan per metre gets 10-17° of heading noise
+    per scan where its odometry errs by a fraction of a degree.  Never above the coefficients; needs
+    ``track_every_scan``.  Off by default, measured (seeds 0/1/2, see the README): on, the MIT Infinite Corridor
+    goes from 19 m ATE to 0.8-1.9 m and the Edmonton convention centre from 0.54-0.90 m to 0.15-0.28 m, but the
+    Freiburg campus, outdoors, loses the map on two seeds of three (2.2 and 3.8 m against 0.30-0.35 m): a cloud
+    drawn as tight as the odometry's usual error has no particle left near the truth after the scan matching's
+    rare gross errors there."""
+    motion_noise_window: int = 200
+    """Scans over which the odometry's error is measured (a log whose floor changes is followed)."""
+    motion_noise_min_scale: float = 0.05
+    """The coefficients are scaled by no less than this: the particles keep some spread however good the
+    odometry (1/20 of gmapping's: about 0.6° of heading per metre)."""
     linear_update_m: float = 1.0
     """Run a filter update after travelling this far since the last one [linearUpdate]."""
     angular_update_rad: float = 0.5
@@ -115,6 +130,13 @@ class SlamConfig:
     """... plus this fraction of the odometry turn ..."""
     wide_max_window_rad: float = math.radians(30.0)
     """... up to this."""
+    unknown_motion_window_m: float = 2.0
+    """Where the log holds no odometry for a scan's motion (``Frame.odom_known`` False: a gap in the odometry
+    stream), the tracking searches the map over ± this much in x and y around the pose the previous scan's motion
+    predicts (a robot that drove on at the same speed; 2 m covers one that stopped, one that went twice as far, and
+    the 1 m steps of a sparse log) ..."""
+    unknown_motion_window_rad: float = math.pi
+    """... and this much in heading (π: any turn; the search is exact branch and bound, so only its cost grows)."""
     wide_resolution_m: float = 0.1
     """Cell size of the wide search's likelihood field (the hill climbing refines at ``resolution_m``)."""
     wide_sigma_m: float = 0.15

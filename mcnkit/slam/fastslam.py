@@ -6,7 +6,10 @@ Per scan (:meth:`FastSlam.step`):
    odometry's prediction is first searched wide on a coarse likelihood field of the map (exact branch and bound,
    :mod:`mcnkit.slam.widesearch`), so odometry that slips, lies or points the wrong way by 10° is caught, then
    hill-climbed at full resolution.  The particles move by that tracked motion with gmapping's sampled noise
-   (``motion_from_tracking``).
+   (``motion_from_tracking``); optionally scaled to what the log's own odometry shows against the tracking
+   (``motion_noise_from_log``, :class:`mcnkit.slam.motion.NoiseScale`).  Where the log holds no odometry for a
+   scan's motion (``Frame.odom_known`` False) the tracking searches for it wide around the previous scan's motion
+   (:func:`mcnkit.slam.widesearch.unknown_motion_match`) instead of reading "no motion".
 2. **Filter update**, once the robot has travelled ``linear_update_m`` or turned ``angular_update_rad``: every
    particle is scan-matched against its own map (gmapping's hill climbing, or the improved proposal), its
    log-weight gains the match log-likelihood, the weights are flattened (``ogain``), the set is resampled (low
@@ -43,13 +46,13 @@ from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.correlative import LikelihoodGrid
 from mcnkit.slam.loops import LoopCloser
 from mcnkit.slam.maps import TiledHitMaps
-from mcnkit.slam.motion import MotionNoise, motion_std, sample_motion
+from mcnkit.slam.motion import MotionNoise, NoiseScale, motion_std, sample_motion
 from mcnkit.slam.proposal import proposal_covariance
 from mcnkit.slam.raycast import ray_cast_counts, ray_cast_strips
 from mcnkit.slam.refine import REFINE_RANGE_M, refine_poses
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
-from mcnkit.slam.widesearch import tracking_grid, wide_match
+from mcnkit.slam.widesearch import tracking_grid, unknown_motion_match, wide_match
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
 __all__ = ["FastSlam", "LogLikelihoodHook", "SlamStep", "counts_to_grid"]
@@ -110,6 +113,8 @@ class FastSlam:
         self.config = config
         self.rng = rng
         self._noise = MotionNoise(config.srr, config.srt, config.str_, config.stt)
+        self.noise_scale = NoiseScale(config.motion_noise_window, min_scale=config.motion_noise_min_scale)
+        """How much of the motion model's noise this log's odometry needs (``SlamConfig.motion_noise_from_log``)."""
         self._lidar = lidar
         n = config.n_particles
         self.maps = TiledHitMaps(n, config.resolution_m, config.tile_cells)
@@ -122,6 +127,8 @@ class FastSlam:
         self.n_resamples = 0
         self.n_loop_corrections = 0
         self.n_wide_jumps = 0
+        self.n_unknown_motion = 0
+        """Scans whose motion the log did not hold (``Frame.odom_known`` False), found by scan matching alone."""
         self._last_odom = np.zeros(3)
         self._linear_m = 0.0
         self._angular_rad = 0.0
@@ -206,13 +213,22 @@ class FastSlam:
             tracked = odom.copy()
         else:
             move = relative(self._last_odom, odom)
+            if frame.odom_known:
+                tracked = self._track(beams, odom, move)
+                if cfg.motion_noise_from_log and cfg.track_every_scan:
+                    self.noise_scale.add(move, relative(self._scan_online[-1], tracked), self._noise)
+            else:  # no odometry for this motion: found by scan matching alone, and counted as driven
+                tracked = self._track_unknown_motion(beams, odom)
+                move = relative(self._scan_online[-1], tracked)
+                self.n_unknown_motion += 1
             self._linear_m += math.hypot(move[0], move[1])
             self._angular_rad += abs(move[2])
-            tracked = self._track(beams, odom, move)
             if cfg.motion_from_tracking and cfg.track_every_scan:  # the scan-matched motion moves the particles
-                self.poses = sample_motion(self.poses, self._scan_online[-1], tracked, self._noise, self.rng)
+                before, after = self._scan_online[-1], tracked
             else:
-                self.poses = sample_motion(self.poses, self._last_odom, odom, self._noise, self.rng)
+                before, after = self._last_odom, odom
+            noise = self.noise_scale.noise(self._noise) if cfg.motion_noise_from_log else self._noise
+            self.poses = sample_motion(self.poses, before, after, noise, self.rng)
         self._last_odom = odom
         updated = first or self._linear_m >= cfg.linear_update_m or self._angular_rad >= cfg.angular_update_rad
         resampled = False
@@ -264,6 +280,22 @@ class FastSlam:
         matched = match_scans_to_map(self.maps, best, starts, [(end_b, back_b)] * 2, cfg)
         scores, _ = score_poses(self.maps, best, matched, end_b, back_b, cfg)
         return matched[0] if scores[0] > 1.05 * scores[1] else matched[1]  # near-ties go to the drift-free start
+
+    def _track_unknown_motion(self, beams: tuple[F64, F64, F64], odom: F64) -> F64:
+        """The best particle's pose at a scan whose motion the log does not hold: searched wide around where the
+        previous scan's motion predicts it (see ``SlamConfig.unknown_motion_window_m``), then hill-climbed."""
+        cfg = self.config
+        if not cfg.track_every_scan:
+            return compose(self._history[self.n_updates - 1, self.best_index], relative(self._update_odom[-1], odom))
+        online = self._scan_online
+        velocity = relative(online[-2], online[-1]) if len(online) > 1 else np.zeros(3)
+        start = compose(online[-1], velocity)
+        end_b, back_b, _ = beams
+        if self._grid is not None:
+            found = unknown_motion_match(self._grid, start, velocity, end_b, cfg)
+            if found is not None:
+                start = found
+        return match_scans_to_map(self.maps, self.best_index, start[None, :], [(end_b, back_b)], cfg)[0]
 
     def _update(self, frame: Frame, first: bool, beams: tuple[F64, F64, F64], tracked: F64) -> tuple[bool, F64 | None]:
         cfg = self.config

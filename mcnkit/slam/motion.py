@@ -9,6 +9,13 @@ perturbed per particle with zero-mean Gaussian noise whose standard deviations a
 
 and composed onto each particle's pose (OpenSLAM gmapping, ``MotionModel::drawFromMotion``).
 
+gmapping's coefficients are per step, so the noise a log gets depends on how far apart its scans are: a log that
+keeps one scan per metre (the Radish "corrected" logs) gets 10-17° of heading noise per scan, where its odometry
+errs by a fraction of a degree, and particles drawn that far off cannot be matched back.  :class:`NoiseScale`
+measures, on the log itself, how far the odometry increments are from the scan-matched ones relative to what the
+model allows, and scales the coefficients down to that (never up); ``SlamConfig.motion_noise_from_log`` says
+where that helps and where it does not.
+
 Example:
     >>> rng = np.random.default_rng(0)
     >>> poses = np.zeros((2, 3))
@@ -19,6 +26,7 @@ Example:
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +34,7 @@ from numpy.typing import NDArray
 
 from mcnkit.geometry import compose, relative
 
-__all__ = ["MotionNoise", "motion_std", "sample_motion"]
+__all__ = ["MotionNoise", "NoiseScale", "motion_std", "sample_motion"]
 
 F64 = NDArray[np.float64]
 
@@ -67,3 +75,47 @@ def sample_motion(
     std = motion_std(delta, noise)
     noisy = delta + rng.standard_normal((len(poses), 3)) * std  # (N, 3) per-particle increments
     return compose(poses, noisy)
+
+
+class NoiseScale:
+    """How much of the motion model's noise the log's odometry needs, measured on the log itself.
+
+    Each scan whose motion the odometry gives adds the residual between that odometry increment and the
+    scan-matched one, in units of the model's standard deviation for the step (translation and heading
+    separately).  The scale is the robust (median-based) standard deviation of the last ``window`` residuals, within
+    ``[min_scale, 1]``; until ``min_samples`` came, 1 (the model as configured).
+    """
+
+    def __init__(self, window: int = 200, min_samples: int = 20, min_scale: float = 0.05) -> None:
+        self._xy: deque[float] = deque(maxlen=window)
+        self._rad: deque[float] = deque(maxlen=window)
+        self.min_samples = min_samples
+        self.min_scale = min_scale
+
+    def add(self, odom_delta: NDArray[np.floating], matched_delta: NDArray[np.floating], noise: MotionNoise) -> None:
+        """One step: the odometry increment and the scan-matched one (3,), robot frame, under ``noise``."""
+        std = motion_std(odom_delta, noise)
+        err = np.asarray(matched_delta, np.float64) - np.asarray(odom_delta, np.float64)
+        err_rad = abs((err[2] + np.pi) % (2 * np.pi) - np.pi)
+        if std[2] > 1e-4:
+            self._rad.append(err_rad / std[2])
+        if np.hypot(std[0], std[1]) > 1e-4:
+            self._xy.append(float(np.hypot(err[0], err[1]) / np.hypot(std[0], std[1])))
+
+    def scales(self) -> tuple[float, float]:
+        """``(translation, heading)`` scales: the median residual over the median of a residual drawn from the
+        model itself (1.18/√2 for the 2-D distance, 0.674 for the heading)."""
+        def one(values: deque[float], median_of_model: float) -> float:
+            if len(values) < self.min_samples:
+                return 1.0
+            return float(np.clip(np.median(values) / median_of_model, self.min_scale, 1.0))
+        return one(self._xy, 1.1774 / np.sqrt(2.0)), one(self._rad, 0.6745)
+
+    def noise(self, base: MotionNoise) -> MotionNoise:
+        """``base`` scaled by :meth:`scales`."""
+        return self.scaled(base, *self.scales())
+
+    @staticmethod
+    def scaled(base: MotionNoise, xy: float, rad: float) -> MotionNoise:
+        """``base`` with its translation (``srr``, ``str_``) and heading (``srt``, ``stt``) terms scaled."""
+        return MotionNoise(base.srr * xy, base.srt * rad, base.str_ * xy, base.stt * rad)

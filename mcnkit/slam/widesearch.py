@@ -26,7 +26,7 @@ from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.correlative import LikelihoodGrid, likelihood_grid, match_scan, thin_points
 from mcnkit.slam.maps import TiledHitMaps
 
-__all__ = ["tracking_grid", "wide_match", "wide_window"]
+__all__ = ["tracking_grid", "unknown_motion_match", "wide_match", "wide_window"]
 
 F64 = NDArray[np.float64]
 
@@ -80,3 +80,25 @@ def wide_match(
     if near.score < config.wide_min_score:
         return None
     return near.pose, False
+
+
+def unknown_motion_match(grid: LikelihoodGrid, predicted: F64, velocity: F64, points_base: F64,
+                         config: SlamConfig) -> F64 | None:
+    """The scan's best pose when the log holds no odometry for its motion.
+
+    ``predicted`` (3,) is where the previous scan's motion ``velocity`` (3,) would bring the robot.  First the
+    window a wide search would use after such a motion (:func:`wide_window`) is searched around it; the whole
+    ``unknown_motion_window_m`` × ``unknown_motion_window_rad`` window wins only when it explains the scan clearly
+    better (``wide_jump_ratio``): a robot turning in place with a 180° scanner sees look-alike views half a turn
+    apart, and the likelier motion is the one it was making.  None when the map explains the scan too poorly."""
+    scan = thin_points(points_base, grid.resolution_m)
+    scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loop_map_radius_m]
+    if len(scan) < 20:
+        return None
+    near_xy, near_rad = wide_window(config, math.hypot(velocity[0], velocity[1]), abs(float(velocity[2])))
+    best = match_scan(grid, scan, predicted, near_xy, near_rad)
+    if best.score < config.wide_max_near_score:  # that motion explains little of the scan: look everywhere
+        wide = match_scan(grid, scan, predicted, config.unknown_motion_window_m, config.unknown_motion_window_rad,
+                          min_score=best.score / config.wide_jump_ratio)
+        best = wide if wide.score > 0 else best
+    return best.pose if best.score >= config.wide_min_score else None

@@ -157,7 +157,7 @@ def test_one_odometry_outlier_is_dropped_with_one_warning(frames: list[Frame]) -
     assert all(a.odom == b.odom for a, b in zip(out, [f for i, f in enumerate(frames) if i != 7], strict=True))
 
 
-def test_a_lasting_odometry_jump_is_re_anchored_as_no_motion(frames: list[Frame]) -> None:
+def test_a_lasting_odometry_jump_is_re_anchored_as_unknown_motion(frames: list[Frame]) -> None:
     from mcnkit.io.plausible import plausible_frames
 
     jumped = list(frames)
@@ -166,7 +166,8 @@ def test_a_lasting_odometry_jump_is_re_anchored_as_no_motion(frames: list[Frame]
     with pytest.warns(LogWarning, match=r"re-anchored after 1 jump"):
         out = list(plausible_frames("x.bag", jumped))
     assert len(out) == len(frames)
-    assert out[8].odom == out[7].odom  # the jump reads as no motion
+    assert out[8].odom == out[7].odom  # the pose repeats across the jump ...
+    assert [i for i, f in enumerate(out) if not f.odom_known] == [8]  # ... and the motion there is unknown
     later = np.array([[f.odom.x_m, f.odom.y_m] for f in out[8:]])
     orig = np.array([[f.odom.x_m, f.odom.y_m] for f in frames[8:]])
     step = np.hypot(*np.diff(later, axis=0).T)

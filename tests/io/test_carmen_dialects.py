@@ -187,3 +187,29 @@ def test_one_bad_stamp_among_good_ones_is_a_tie_not_a_restamped_log(tmp_path: Pa
     assert len(messages) == 1 and problem in messages[0] and "the time of the scan before" in messages[0]
     assert stamps[0] == 100_000_000_000 and stamps[-1] == int((100.0 + 0.25 * (N_SCANS - 1)) * 1e9)
     assert 101_000_000_000 < stamps[5] < 101_500_000_000  # between its neighbours' own times
+
+
+def test_a_corrected_log_that_dropped_the_odometry_between_some_scans_says_the_motion_is_unknown(tmp_path: Path) -> None:
+    # Radish "corrected" layout: FLASER pose fields = corrected pose, then ODOM re-anchored at it, then the raw
+    # odometry until the next scan.  Örebro's log holds only the re-anchoring line in most gaps: the robot moved,
+    # but the log does not say how, and reading that as "no motion" sends SLAM the wrong way (Seattle: 13 m).
+    gaps = {4, 8}
+    lines = []
+    for k in range(N_SCANS):
+        x = 1.0 + 0.5 * k
+        if k and k not in gaps:
+            lines.append(f"ODOM {x - 0.02:.3f} 5.01 0.003 0 0 0 {k - 0.5:.3f} host {k - 0.5:.3f}")  # raw, a bit off
+        lines.append(f"FLASER 181 {' '.join(_ranges(x))} {x} 5 0 {x} 5 0 {k + 0.0:.3f} host {k + 0.0:.3f}")
+        lines.append(f"ODOM {x} 5 0 0 0 0 {k + 0.1:.3f} host {k + 0.1:.3f}")  # re-anchored at the corrected pose
+        lines.append("NEFF 30")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LogWarning)
+        with open_log(_write(tmp_path, lines)) as log:
+            frames = list(log.frames())
+            assert log.ground_truth() is not None
+    messages = [str(w.message) for w in caught if issubclass(w.category, LogWarning)]
+    assert [k for k, f in enumerate(frames) if not f.odom_known] == sorted(gaps)
+    assert any("no odometry between 2 of 11 pairs of consecutive scans" in m for m in messages)
+    odom = np.array([f.odom.as_array() for f in frames])
+    assert np.allclose(odom[4], odom[3]) and np.allclose(odom[8], odom[7])  # the pose repeats: motion unknown
+    assert 0.45 < odom[5, 0] - odom[4, 0] < 0.55  # elsewhere the raw increments are kept

@@ -188,6 +188,57 @@ def test_odometry_that_says_forward_while_the_robot_backs_up_is_caught_by_the_wi
     assert errors[True] < 0.2 < errors[False]
 
 
+def test_motion_the_log_does_not_hold_is_found_by_scan_matching() -> None:
+    # Seattle's corrected log drops the odometry across one 81° turn in place; Örebro's across nearly every step.
+    # Here the robot drives 2 m east, turns 70° in place and drives on north-east; across the turn the log holds
+    # no odometry (``odom_known`` False), so the frame repeats the previous odometry pose.
+    rng = np.random.default_rng(4)
+    truth = [np.array([2.0 + 0.1 * k, 2.0, 0.0]) for k in range(21)]
+    turn = np.radians(70.0)
+    truth += [np.array([4.0 + 0.1 * k * np.cos(turn), 2.0 + 0.1 * k * np.sin(turn), turn]) for k in range(0, 25)]
+    gap = 21  # the frame after the turn
+    odom = [truth[0]]
+    for k in range(1, len(truth)):
+        step = np.zeros(3) if k == gap else relative(truth[k - 1], truth[k])
+        odom.append(compose(odom[-1], step))
+    frames = [Frame(int(k * 1e8), Scan(cast(p, rng), LIDAR), Pose2D.from_array(o), odom_known=k != gap)
+              for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
+    slam = FastSlam(SlamConfig(n_particles=10, loop_closure=False), np.random.default_rng(0))
+    for f in frames:
+        slam.step(f)
+    est = slam.trajectory().poses
+    assert slam.n_unknown_motion == 1
+    assert np.degrees(abs(np.angle(np.exp(1j * (est[-1, 2] - turn))))) < 2.0  # the 70° turn was found
+    assert np.hypot(*(est[-1, :2] - truth[-1][:2])) < 0.15
+    # read as "no motion", the same frames leave the robot facing east while it drives north-east
+    blind = FastSlam(SlamConfig(n_particles=10, loop_closure=False), np.random.default_rng(0))
+    for f in frames:
+        blind.step(Frame(f.stamp_ns, f.scan, f.odom))
+    assert np.degrees(abs(np.angle(np.exp(1j * (blind.trajectory().poses[-1, 2] - turn))))) > 20.0
+
+
+def test_a_sparse_log_gets_the_particle_spread_its_odometry_needs_not_gmappings_per_step_noise() -> None:
+    # The Radish corrected logs keep one scan per metre: gmapping's coefficients (per step) then draw 10-17° of
+    # heading noise per scan where the odometry errs by a fraction of a degree.  Here: the loop with 0.8 m steps.
+    rng = np.random.default_rng(7)
+    truth = true_path()[::8]
+    odom = drifting_odometry(truth, rng)
+    frames = [Frame(int(k * 1e9), Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))
+              for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
+    spread, worst = {}, {}
+    for measured in (True, False):
+        slam = FastSlam(SlamConfig(n_particles=10, motion_noise_from_log=measured), np.random.default_rng(0))
+        headings = [np.degrees(np.std(np.unwrap(slam.step(f).poses[:, 2]))) for f in frames]  # per-step spread
+        spread[measured] = float(np.mean(headings[len(frames) // 2:]))
+        est = slam.trajectory().poses
+        worst[measured] = float(np.degrees(np.abs(np.angle(np.exp(1j * (est[:, 2] - truth[:, 2])))).max()))
+        if measured:
+            xy, rad = slam.noise_scale.scales()
+            assert 0.05 <= rad < 0.5 and 0.05 <= xy < 0.8  # measured on the log: well below gmapping's model
+    assert spread[True] < 0.5 * spread[False]
+    assert worst[True] < 3.0 and worst[False] < 3.0  # a room this small holds either way
+
+
 def test_refined_trajectory_stays_on_the_path_and_the_map_can_be_cast_from_it(world_run: tuple) -> None:
     truth, _, slam, steps = world_run
     tracked, refined = slam.trajectory(mode="tracked").poses, slam.trajectory(mode="refined").poses

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mcnkit.slam.motion import MotionNoise, motion_std, sample_motion
+from mcnkit.slam.motion import MotionNoise, NoiseScale, motion_std, sample_motion
 
 
 def test_noise_free_motion_is_the_odometry_increment_in_the_particle_frame() -> None:
@@ -27,3 +27,38 @@ def test_sampled_mean_and_variance() -> None:
     # from the origin the increment is the pose: mean (1, 0, 0), std (0.1, 0.03, 0.2)
     assert out.mean(axis=0).tolist() == pytest.approx([1.0, 0.0, 0.0], abs=0.01)
     assert out.std(axis=0).tolist() == pytest.approx([0.1, 0.03, 0.2], rel=0.03)
+
+
+def _residuals(scale: float, n: int, rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``n`` 1 m / 0.3 rad odometry steps and scan-matched ones that differ by ``scale`` × the model's noise."""
+    out = []
+    for _ in range(n):
+        odom = np.array([1.0, 0.0, 0.3])
+        std = motion_std(odom, MotionNoise())
+        out.append((odom, odom + scale * std * rng.standard_normal(3)))
+    return out
+
+
+def test_noise_scale_measures_how_much_of_the_model_the_odometry_needs() -> None:
+    rng = np.random.default_rng(0)
+    for true_scale, lo, hi in [(0.1, 0.08, 0.12), (0.3, 0.25, 0.35)]:
+        est = NoiseScale(window=400)
+        for odom, matched in _residuals(true_scale, 400, rng):
+            est.add(odom, matched, MotionNoise())
+        xy, rad = est.scales()
+        assert lo < xy < hi and lo < rad < hi
+        scaled = est.noise(MotionNoise())
+        assert np.isclose(scaled.srt, 0.2 * rad) and np.isclose(scaled.srr, 0.1 * xy)
+
+
+def test_noise_scale_never_raises_the_model_never_drops_below_its_floor_and_waits_for_samples() -> None:
+    rng = np.random.default_rng(1)
+    worse, perfect, early = NoiseScale(), NoiseScale(min_scale=0.05), NoiseScale(min_samples=20)
+    for odom, matched in _residuals(3.0, 100, rng):
+        worse.add(odom, matched, MotionNoise())
+        perfect.add(odom, odom, MotionNoise())
+    for odom, matched in _residuals(0.1, 19, rng):
+        early.add(odom, matched, MotionNoise())
+    assert worse.scales() == (1.0, 1.0)  # odometry worse than gmapping's model: the model as configured
+    assert perfect.scales() == (0.05, 0.05)
+    assert early.scales() == (1.0, 1.0)  # 19 steps are too few to say
