@@ -13,6 +13,9 @@ scan clearly better than the best pose near the prediction (``wide_jump_ratio``)
 equally well — along a corridor, whose walls fit anywhere along its axis — the odometry keeps the say; and it
 looks wide at all only when the region the motion model allows explains little of the scan (``wide_max_near_score``):
 a scan that fits where the odometry put it is never moved to a look-alike place farther away.
+
+:func:`unknown_motion_match` does the same where the log holds no odometry for a scan's motion
+(``Frame.odom_known`` False), around the motion of the scan before and over any turn.
 """
 
 from __future__ import annotations
@@ -88,9 +91,10 @@ def unknown_motion_match(grid: LikelihoodGrid, predicted: F64, velocity: F64, po
 
     ``predicted`` (3,) is where the previous scan's motion ``velocity`` (3,) would bring the robot.  First the
     window a wide search would use after such a motion (:func:`wide_window`) is searched around it; the whole
-    ``unknown_motion_window_m`` × ``unknown_motion_window_rad`` window wins only when it explains the scan clearly
-    better (``wide_jump_ratio``): a robot turning in place with a 180° scanner sees look-alike views half a turn
-    apart, and the likelier motion is the one it was making.  None when the map explains the scan too poorly."""
+    ``unknown_motion_window_m`` × ``unknown_motion_window_rad`` window is searched only when that one explains
+    little of the scan (``wide_max_near_score``), and wins only when it explains the scan clearly better
+    (``wide_jump_ratio``): a robot turning in place with a 180° scanner sees look-alike views half a turn apart,
+    and the likelier motion is the one it was making.  None when the map explains the scan too poorly."""
     scan = thin_points(points_base, grid.resolution_m)
     scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loop_map_radius_m]
     if len(scan) < 20:
