@@ -257,11 +257,15 @@ class FastSlam:
             scores,
         )
 
+    def _from_update(self, odom: F64) -> F64:
+        """gmapping's pose at this scan: the best particle's pose at the last update plus the odometry since."""
+        return compose(self._history[self.n_updates - 1, self.best_index], relative(self._update_odom[-1], odom))
+
     def _track(self, beams: tuple[F64, F64, F64], odom: F64, move: F64) -> F64:
         """The best particle's pose at this scan as known online (see ``SlamConfig.track_every_scan``)."""
         cfg = self.config
         best = self.best_index
-        from_update = compose(self._history[self.n_updates - 1, best], relative(self._update_odom[-1], odom))
+        from_update = self._from_update(odom)
         if not cfg.track_every_scan:
             return from_update
         # Two starts: the previous scan's tracked pose moved by odometry (close, but may drift where the
@@ -286,7 +290,7 @@ class FastSlam:
         previous scan's motion predicts it (see ``SlamConfig.unknown_motion_window_m``), then hill-climbed."""
         cfg = self.config
         if not cfg.track_every_scan:
-            return compose(self._history[self.n_updates - 1, self.best_index], relative(self._update_odom[-1], odom))
+            return self._from_update(odom)
         online = self._scan_online
         velocity = relative(online[-2], online[-1]) if len(online) > 1 else np.zeros(3)
         start = compose(online[-1], velocity)

@@ -112,10 +112,7 @@ class NoiseScale:
         return one(self._xy, 1.1774 / np.sqrt(2.0)), one(self._rad, 0.6745)
 
     def noise(self, base: MotionNoise) -> MotionNoise:
-        """``base`` scaled by :meth:`scales`."""
-        return self.scaled(base, *self.scales())
-
-    @staticmethod
-    def scaled(base: MotionNoise, xy: float, rad: float) -> MotionNoise:
-        """``base`` with its translation (``srr``, ``str_``) and heading (``srt``, ``stt``) terms scaled."""
+        """``base`` with its translation (``srr``, ``str_``) and heading (``srt``, ``stt``) terms scaled by
+        :meth:`scales`."""
+        xy, rad = self.scales()
         return MotionNoise(base.srr * xy, base.srt * rad, base.str_ * xy, base.stt * rad)

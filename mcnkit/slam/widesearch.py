@@ -55,6 +55,14 @@ def tracking_grid(maps: TiledHitMaps, particle: int, center: F64, config: SlamCo
     return likelihood_grid(pts, config.wide_resolution_m, config.wide_sigma_m, config.wide_resolution_m, depth=5)
 
 
+def _search_points(points_base: F64, cell_m: float, config: SlamConfig) -> F64 | None:
+    """The scan's hit points (M, 2) the wide searches use: one per field cell, within the local map's radius;
+    None when fewer than 20 are left (too little to place the scan by)."""
+    scan = thin_points(points_base, cell_m)
+    scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loop_map_radius_m]
+    return scan if len(scan) >= 20 else None
+
+
 def wide_match(
     grid: LikelihoodGrid, nominal: F64, points_base: F64, config: SlamConfig, motion_sigma: F64, step_m: float,
     turn_rad: float,
@@ -66,9 +74,8 @@ def wide_match(
     3σ region (a jump), else that best pose and False; None when the map explains the scan too poorly.
     """
     res = grid.resolution_m
-    scan = thin_points(points_base, res)
-    scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loop_map_radius_m]
-    if len(scan) < 20:
+    scan = _search_points(points_base, res, config)
+    if scan is None:
         return None
     win_xy, win_rad = wide_window(config, step_m, turn_rad)
     near_xy = min(max(3.0 * float(max(motion_sigma[0], motion_sigma[1])), 2 * res), win_xy)
@@ -95,9 +102,8 @@ def unknown_motion_match(grid: LikelihoodGrid, predicted: F64, velocity: F64, po
     little of the scan (``wide_max_near_score``), and wins only when it explains the scan clearly better
     (``wide_jump_ratio``): a robot turning in place with a 180° scanner sees look-alike views half a turn apart,
     and the likelier motion is the one it was making.  None when the map explains the scan too poorly."""
-    scan = thin_points(points_base, grid.resolution_m)
-    scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loop_map_radius_m]
-    if len(scan) < 20:
+    scan = _search_points(points_base, grid.resolution_m, config)
+    if scan is None:
         return None
     near_xy, near_rad = wide_window(config, math.hypot(velocity[0], velocity[1]), abs(float(velocity[2])))
     best = match_scan(grid, scan, predicted, near_xy, near_rad)
