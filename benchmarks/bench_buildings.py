@@ -83,14 +83,14 @@ def _data_dir(arg: str | None) -> Path:
     return Path(env) if env else ROOT.parent / "shared" / "data"
 
 
-def _run(name: str, seed: int, data: Path, out: Path) -> Run:
+def _run(name: str, seed: int, data: Path, out: Path, options: list[str]) -> Run:
     from mcnkit.io import open_log
     from mcnkit.metrics import absolute_trajectory_error, hit_cells, read_relations, read_tum, relations_error
 
     log_rel, rel_rel = BUILDINGS[name]
     log = data / log_rel
     cmd = [sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "30", "--resolution", "0.05",
-           "--seed", str(seed), "--out", str(out), "--no-progress"]
+           "--seed", str(seed), "--out", str(out), "--no-progress", *options]
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env={**os.environ,
                                                                                          "RERUN_ANALYTICS": "0"})
@@ -202,7 +202,11 @@ def main() -> int:
                         help="more logs with a reference, scored like the others and named by their file (e.g. the "
                              "other Radish corrected logs of github.com/acschaefer/ple, data/carmen: buildings this "
                              "project was not developed on; use another --out to keep the committed results)")
+    parser.add_argument("--slam-option", action="append", default=[], metavar="FLAG",
+                        help="a flag passed on to every `mcnkit slam` run, to measure a setting across the buildings "
+                             "(repeatable; e.g. --slam-option=--slam.motion-noise-from-log; use another --out)")
     args = parser.parse_args()
+    options = [word for flag in args.slam_option for word in flag.split()]
     data = _data_dir(args.data)
     names = list(args.only or ([] if args.extra else BUILDINGS))  # --extra alone: just those
     for log in args.extra:  # an absolute path: data / path is the path itself
@@ -215,7 +219,7 @@ def main() -> int:
         outs = {(n, s): Path(tmp) / f"{n}-{s}" for n, s in jobs}
 
         def one(job: tuple[str, int]) -> Run:
-            run = _run(job[0], job[1], data, outs[job])
+            run = _run(job[0], job[1], data, outs[job], options)
             ate = f"ATE {run.ate_rmse_m:.3f} m (max {run.ate_max_m:.2f})" if run.ate_rmse_m is not None else ""
             rel = f"relations {run.relations_m:.4f} m" if run.relations_m is not None else ""
             print(f"{job[0]:>10} seed {job[1]}: {ate}{rel}  CPU {run.cpu_s:.1f} s  peak RSS {run.peak_rss_mb:.0f} MB  "

@@ -70,16 +70,21 @@ class SlamConfig:
     """Odometry error in translation as a function of rotation [str]."""
     stt: float = 0.2
     """Odometry error in rotation as a function of rotation [stt]."""
-    motion_noise_from_log: bool = False
+    motion_noise_from_log: bool = True
     """Scale the four coefficients above down to what the log's own odometry shows (:class:`mcnkit.slam.motion.
     NoiseScale`: the odometry increments against the scan-matched ones, over the last ``motion_noise_window``
     scans): gmapping's values are per step, and a log that keeps one scan per metre gets 10-17° of heading noise
-    per scan where its odometry errs by a fraction of a degree.  Never above the coefficients; needs
-    ``track_every_scan``.  Off by default, measured (seeds 0/1/2, see the README): on, the MIT Infinite Corridor
-    goes from 19 m ATE to 0.8-1.9 m and the Edmonton convention centre from 0.54-0.90 m to 0.15-0.28 m, but the
-    Freiburg campus, outdoors, loses the map on two seeds of three (2.2 and 3.8 m against 0.30-0.35 m): a cloud
-    drawn as tight as the odometry's usual error has no particle left near the truth after the scan matching's
-    rare gross errors there."""
+    per scan where its odometry errs by a fraction of a degree, more than the hill climbing can pull back.  Never
+    above the coefficients; needs ``track_every_scan``.  Off: gmapping's coefficients as they are.  Measured in the
+    README ("SLAM on real buildings"): on, with ``motion_noise_step_floor``, the MIT Infinite Corridor goes from
+    0.7-19 m ATE to 0.45-0.69 m, the Edmonton convention centre from 0.54-0.90 m to 0.15-0.17 m, and ACES no longer
+    loses its map on one seed in six (8.2 m off)."""
+    motion_noise_step_floor: bool = True
+    """With ``motion_noise_from_log``: a step whose odometry and scan-matched increments disagree by more than the
+    measured noise keeps noise that spans their disagreement (up to the coefficients): one of the two erred, and
+    a cloud as tight as the usual error would hold no particle where the other one says.  Off, the Freiburg
+    campus (outdoors, where scan matching errs grossly now and then) loses its map on two seeds of three (2.2 and
+    3.8 m ATE against 0.27-0.30 m on)."""
     motion_noise_window: int = 200
     """Scans over which the odometry's error is measured (a log whose floor changes is followed)."""
     motion_noise_min_scale: float = 0.05

@@ -6,8 +6,8 @@ Per scan (:meth:`FastSlam.step`):
    odometry's prediction is first searched wide on a coarse likelihood field of the map (exact branch and bound,
    :mod:`mcnkit.slam.widesearch`), so odometry that slips, lies or points the wrong way by 10° is caught, then
    hill-climbed at full resolution.  The particles move by that tracked motion with gmapping's sampled noise
-   (``motion_from_tracking``); optionally scaled to what the log's own odometry shows against the tracking
-   (``motion_noise_from_log``, :class:`mcnkit.slam.motion.NoiseScale`).  Where the log holds no odometry for a
+   (``motion_from_tracking``), scaled to what the log's own odometry shows against the tracking, but never below
+   this step's own disagreement between the two (``motion_noise_from_log``, :class:`mcnkit.slam.motion.NoiseScale`).  Where the log holds no odometry for a
    scan's motion (``Frame.odom_known`` False) the tracking searches for it wide around the previous scan's motion
    (:func:`mcnkit.slam.widesearch.unknown_motion_match`) instead of reading "no motion".
 2. **Filter update**, once the robot has travelled ``linear_update_m`` or turned ``angular_update_rad``: every
@@ -227,7 +227,8 @@ class FastSlam:
                 before, after = self._scan_online[-1], tracked
             else:
                 before, after = self._last_odom, odom
-            noise = self.noise_scale.noise(self._noise) if cfg.motion_noise_from_log else self._noise
+            noise = (self.noise_scale.noise(self._noise, cfg.motion_noise_step_floor and frame.odom_known)
+                     if cfg.motion_noise_from_log else self._noise)
             self.poses = sample_motion(self.poses, before, after, noise, self.rng)
         self._last_odom = odom
         updated = first or self._linear_m >= cfg.linear_update_m or self._angular_rad >= cfg.angular_update_rad

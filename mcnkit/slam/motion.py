@@ -13,8 +13,10 @@ gmapping's coefficients are per step, so the noise a log gets depends on how far
 keeps one scan per metre (the Radish "corrected" logs) gets 10-17° of heading noise per scan, where its odometry
 errs by a fraction of a degree, and particles drawn that far off cannot be matched back.  :class:`NoiseScale`
 measures, on the log itself, how far the odometry increments are from the scan-matched ones relative to what the
-model allows, and scales the coefficients down to that (never up); ``SlamConfig.motion_noise_from_log`` says
-where that helps and where it does not.
+model allows, and scales the coefficients down to that (never up), except for a step whose own odometry and
+scan-matched increments disagree by more: that step keeps noise spanning the disagreement (one of the two erred,
+and scan matching does, grossly, now and then outdoors).  ``SlamConfig.motion_noise_from_log`` says what it
+changes on the real buildings.
 
 Example:
     >>> rng = np.random.default_rng(0)
@@ -91,16 +93,16 @@ class NoiseScale:
         self._rad: deque[float] = deque(maxlen=window)
         self.min_samples = min_samples
         self.min_scale = min_scale
+        self._last: tuple[float | None, float | None] = (None, None)
 
     def add(self, odom_delta: NDArray[np.floating], matched_delta: NDArray[np.floating], noise: MotionNoise) -> None:
         """One step: the odometry increment and the scan-matched one (3,), robot frame, under ``noise``."""
-        std = motion_std(odom_delta, noise)
-        err = np.asarray(matched_delta, np.float64) - np.asarray(odom_delta, np.float64)
-        err_rad = abs((err[2] + np.pi) % (2 * np.pi) - np.pi)
-        if std[2] > 1e-4:
-            self._rad.append(err_rad / std[2])
-        if np.hypot(std[0], std[1]) > 1e-4:
-            self._xy.append(float(np.hypot(err[0], err[1]) / np.hypot(std[0], std[1])))
+        xy, rad = _residuals(odom_delta, matched_delta, noise)
+        if rad is not None:
+            self._rad.append(rad)
+        if xy is not None:
+            self._xy.append(xy)
+        self._last = (xy, rad)
 
     def scales(self) -> tuple[float, float]:
         """``(translation, heading)`` scales: the median residual over the median of a residual drawn from the
@@ -111,8 +113,25 @@ class NoiseScale:
             return float(np.clip(np.median(values) / median_of_model, self.min_scale, 1.0))
         return one(self._xy, 1.1774 / np.sqrt(2.0)), one(self._rad, 0.6745)
 
-    def noise(self, base: MotionNoise) -> MotionNoise:
+    def noise(self, base: MotionNoise, step_floor: bool = False) -> MotionNoise:
         """``base`` with its translation (``srr``, ``str_``) and heading (``srt``, ``stt``) terms scaled by
-        :meth:`scales`."""
+        :meth:`scales`; with ``step_floor``, never below the last added step's own residual (a step whose odometry
+        and scan matching disagree keeps noise that spans the disagreement, up to ``base``)."""
         xy, rad = self.scales()
+        if step_floor:
+            last_xy, last_rad = self._last
+            xy = min(max(xy, last_xy if last_xy is not None else 0.0), 1.0)
+            rad = min(max(rad, last_rad if last_rad is not None else 0.0), 1.0)
         return MotionNoise(base.srr * xy, base.srt * rad, base.str_ * xy, base.stt * rad)
+
+
+def _residuals(odom_delta: NDArray[np.floating], matched_delta: NDArray[np.floating],
+               noise: MotionNoise) -> tuple[float | None, float | None]:
+    """How far the scan-matched increment is from the odometry's, in units of the model's standard deviation for
+    the step: ``(translation, heading)``, None where the model allows no noise."""
+    std = motion_std(odom_delta, noise)
+    err = np.asarray(matched_delta, np.float64) - np.asarray(odom_delta, np.float64)
+    err_rad = abs((err[2] + np.pi) % (2 * np.pi) - np.pi)
+    rad = float(err_rad / std[2]) if std[2] > 1e-4 else None
+    xy = float(np.hypot(err[0], err[1]) / np.hypot(std[0], std[1])) if np.hypot(std[0], std[1]) > 1e-4 else None
+    return xy, rad

@@ -62,3 +62,21 @@ def test_noise_scale_never_raises_the_model_never_drops_below_its_floor_and_wait
     assert worse.scales() == (1.0, 1.0)  # odometry worse than gmapping's model: the model as configured
     assert perfect.scales() == (0.05, 0.05)
     assert early.scales() == (1.0, 1.0)  # 19 steps are too few to say
+
+
+def test_a_step_whose_odometry_and_scan_matching_disagree_keeps_noise_that_spans_the_disagreement() -> None:
+    # Scan matching errs grossly now and then (outdoors, in a featureless stretch): the particles must still reach
+    # what the odometry says for that step, so its noise is at least the disagreement, whatever the log's usual.
+    rng = np.random.default_rng(2)
+    scale = NoiseScale()
+    for odom, matched in _residuals(0.1, 100, rng):
+        scale.add(odom, matched, MotionNoise())
+    usual = scale.noise(MotionNoise(), step_floor=True)
+    assert usual.srt < 0.05  # a good log: a fraction of gmapping's 0.2
+    odom = np.array([1.0, 0.0, 0.0])
+    std = motion_std(odom, MotionNoise())
+    scale.add(odom, odom + np.array([0.0, 0.0, 0.5 * std[2]]), MotionNoise())  # half a model σ off in heading
+    assert np.isclose(scale.noise(MotionNoise(), step_floor=True).srt, 0.2 * 0.5)
+    assert scale.noise(MotionNoise()).srt < 0.05  # without the floor, the usual scale
+    scale.add(odom, odom + np.array([0.0, 0.0, 5.0 * std[2]]), MotionNoise())  # far off: never above the model
+    assert np.isclose(scale.noise(MotionNoise(), step_floor=True).srt, 0.2)
