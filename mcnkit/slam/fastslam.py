@@ -140,6 +140,9 @@ class FastSlam:
         self._scan_update: list[int] = []  # index of the last update at or before each scan
         self._scan_ranges: list[NDArray[np.float32]] = []  # every scan, for trajectory(mode="matched")
         self._scan_online: list[F64] = []  # the online pose of every scan (see SlamConfig.track_every_scan)
+        # the robot's motion over the last scan, in its own frame: what a scan whose motion the log does not hold is
+        # predicted from (not the difference of two online poses: the best particle may change between them)
+        self._last_motion = np.zeros(3)
         self._scan_tracked: list[F64] = []  # that pose relative to the best particle's last update pose
         self._update_hits: list[F64] = []  # hit points (M, 2) of every update scan, base frame
         self._update_tracked: list[F64] = []  # the online pose at every update (where tracking restarts)
@@ -221,6 +224,7 @@ class FastSlam:
                 tracked = self._track_unknown_motion(beams, odom)
                 move = relative(self._scan_online[-1], tracked)
                 self.n_unknown_motion += 1
+            self._last_motion = relative(self._scan_online[-1], tracked)
             self._linear_m += math.hypot(move[0], move[1])
             self._angular_rad += abs(move[2])
             if cfg.motion_from_tracking and cfg.track_every_scan:  # the scan-matched motion moves the particles
@@ -292,9 +296,8 @@ class FastSlam:
         cfg = self.config
         if not cfg.track_every_scan:
             return self._from_update(odom)
-        online = self._scan_online
-        velocity = relative(online[-2], online[-1]) if len(online) > 1 else np.zeros(3)
-        start = compose(online[-1], velocity)
+        velocity = self._last_motion
+        start = compose(self._scan_online[-1], velocity)
         end_b, back_b, _ = beams
         if self._grid is not None:
             found = unknown_motion_match(self._grid, start, velocity, end_b, cfg)

@@ -202,7 +202,7 @@ class LoopCloser:
         return None
 
     def _try(self, k: int, j: int, lineage: F64, scan: F64, path: F64, travelled: F64,
-             drift_m: float) -> tuple[int, F64, F64] | None:
+             drift_m: float, window: tuple[float, float] | None = None) -> tuple[int, F64, F64] | None:
         """Matches scan ``k`` into the map of the chain of old scans around node ``j``; the chain node nearest to
         the match, the relative pose from it to node ``k`` and the match's information (what the scan pins down:
         little along a corridor's axis, at most the stated ``loop_sigma_*`` precision in any direction)."""
@@ -211,7 +211,7 @@ class LoopCloser:
         world = [compose(lineage[m], np.c_[self.points[m], np.zeros(len(self.points[m]))])[:, :2] for m in chain]
         sensors = np.concatenate([np.repeat(lineage[m, None, :2], len(w), axis=0) for m, w in zip(chain, world, strict=True)])
         pts_map = np.concatenate(world)
-        win_xy, win_rad = self._window(drift_m)
+        win_xy, win_rad = window if window is not None else self._window(drift_m)
         keep = np.hypot(pts_map[:, 0] - lineage[k, 0], pts_map[:, 1] - lineage[k, 1]) <= win_xy + cfg.loop_map_radius_m
         pts_map, sensors = pts_map[keep], sensors[keep]
         if len(pts_map) < 20:
@@ -224,11 +224,17 @@ class LoopCloser:
             self.stats.rejected_score += 1
             return None
         # A real match is a peak inside the window; one on its border only says the score kept rising that way
-        # (a scan overlapping the old map in part slides until more of it overlaps).
+        # (a scan overlapping the old map in part slides until more of it overlaps, or the map drifted more than
+        # the window allows): the window is doubled, up to its maximum, and the match searched again.
         off = best.pose - lineage[k]
         off[2] = (off[2] + np.pi) % (2 * np.pi) - np.pi
         margin = 2 * self.resolution_m
-        if max(abs(off[0]), abs(off[1])) >= win_xy - margin or abs(off[2]) >= win_rad - math.radians(1.0):
+        on_xy, on_rad = max(abs(off[0]), abs(off[1])) >= win_xy - margin, abs(off[2]) >= win_rad - math.radians(1.0)
+        if on_xy or on_rad:
+            wider = (min(2 * win_xy, cfg.loop_max_window_m) if on_xy else win_xy,
+                     min(2 * win_rad, cfg.loop_max_window_rad) if on_rad else win_rad)
+            if wider != (win_xy, win_rad):
+                return self._try(k, j, lineage, scan, path, travelled, drift_m, wider)
             self.stats.rejected_border += 1
             return None
         fine = refine_match(grid, scan, best.pose, 2 * self.resolution_m)

@@ -15,7 +15,7 @@ from scipy import ndimage
 
 from mcnkit.geometry import compose
 
-__all__ = ["WINDOW_RANGE_M", "MapArrays", "Window", "end_points", "fill_window", "no_window", "window"]
+__all__ = ["WINDOW_MAX_CELLS", "WINDOW_RANGE_M", "MapArrays", "Window", "end_points", "fill_window", "no_window", "window"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -62,12 +62,20 @@ def no_window() -> Window:
     return np.zeros((0, 0, 2), np.float32), np.zeros((0, 0), np.uint8), np.zeros((0, 2), np.int64), 0, 0
 
 
+WINDOW_MAX_CELLS = 1 << 23
+"""A window whose bounding box would hold more cells than this (64 MB of float32 pairs: 145 m square at 5 cm) is
+not made: particles spread that far apart are matched through the tile tables alone, with the same results."""
+
+
 def window(points_xy: F64, res: float, shift: int, reach_tiles: int) -> Window:
-    """A window in which tiles within ``reach_tiles`` of any of the points (K, 2) are usable."""
+    """A window in which tiles within ``reach_tiles`` of any of the points (K, 2) are usable (:func:`no_window`
+    where its bounding box would exceed ``WINDOW_MAX_CELLS``)."""
     tiles = np.floor(points_xy / res).astype(np.int64) >> shift  # (K, 2) as (tx, ty)
     lo = tiles.min(axis=0) - reach_tiles - 1
     hi = tiles.max(axis=0) + reach_tiles + 1
     th, tw = int(hi[1] - lo[1] + 1), int(hi[0] - lo[0] + 1)
+    if th * tw << (2 * shift) > WINDOW_MAX_CELLS:
+        return no_window()
     hit = np.zeros((th, tw), bool)
     hit[tiles[:, 1] - lo[1], tiles[:, 0] - lo[0]] = True
     usable = ndimage.binary_dilation(hit, np.ones((3, 3), bool), iterations=reach_tiles)
