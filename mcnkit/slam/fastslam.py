@@ -216,22 +216,23 @@ class FastSlam:
             tracked = odom.copy()
         else:
             move = relative(self._last_odom, odom)
+            residual = None  # this step's odometry against its scan-matched motion (the noise floor)
             if frame.odom_known:
                 tracked = self._track(beams, odom, move)
+                self._last_motion = relative(self._scan_online[-1], tracked)
                 if cfg.motion_noise_from_log and cfg.track_every_scan:
-                    self.noise_scale.add(move, relative(self._scan_online[-1], tracked), self._noise)
+                    residual = self.noise_scale.add(move, self._last_motion, self._noise)
             else:  # no odometry for this motion: found by scan matching alone, and counted as driven
                 tracked = self._track_unknown_motion(beams, odom)
-                move = relative(self._scan_online[-1], tracked)
+                self._last_motion = move = relative(self._scan_online[-1], tracked)
                 self.n_unknown_motion += 1
-            self._last_motion = relative(self._scan_online[-1], tracked)
             self._linear_m += math.hypot(move[0], move[1])
             self._angular_rad += abs(move[2])
             if cfg.motion_from_tracking and cfg.track_every_scan:  # the scan-matched motion moves the particles
                 before, after = self._scan_online[-1], tracked
             else:
                 before, after = self._last_odom, odom
-            noise = (self.noise_scale.noise(self._noise, cfg.motion_noise_step_floor and frame.odom_known)
+            noise = (self.noise_scale.noise(self._noise, residual if cfg.motion_noise_step_floor else None)
                      if cfg.motion_noise_from_log else self._noise)
             self.poses = sample_motion(self.poses, before, after, noise, self.rng)
         self._last_odom = odom

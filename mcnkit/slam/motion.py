@@ -93,16 +93,17 @@ class NoiseScale:
         self._rad: deque[float] = deque(maxlen=window)
         self.min_samples = min_samples
         self.min_scale = min_scale
-        self._last: tuple[float | None, float | None] = (None, None)
 
-    def add(self, odom_delta: NDArray[np.floating], matched_delta: NDArray[np.floating], noise: MotionNoise) -> None:
-        """One step: the odometry increment and the scan-matched one (3,), robot frame, under ``noise``."""
+    def add(self, odom_delta: NDArray[np.floating], matched_delta: NDArray[np.floating],
+            noise: MotionNoise) -> tuple[float | None, float | None]:
+        """One step: the odometry increment and the scan-matched one (3,), robot frame, under ``noise``; returns the
+        step's own residuals ``(translation, heading)`` (the floor :meth:`noise` takes)."""
         xy, rad = _residuals(odom_delta, matched_delta, noise)
         if rad is not None:
             self._rad.append(rad)
         if xy is not None:
             self._xy.append(xy)
-        self._last = (xy, rad)
+        return xy, rad
 
     def scales(self) -> tuple[float, float]:
         """``(translation, heading)`` scales: the median residual over the median of a residual drawn from the
@@ -113,15 +114,15 @@ class NoiseScale:
             return float(np.clip(np.median(values) / median_of_model, self.min_scale, 1.0))
         return one(self._xy, 1.1774 / np.sqrt(2.0)), one(self._rad, 0.6745)
 
-    def noise(self, base: MotionNoise, step_floor: bool = False) -> MotionNoise:
+    def noise(self, base: MotionNoise, step: tuple[float | None, float | None] | None = None) -> MotionNoise:
         """``base`` with its translation (``srr``, ``str_``) and heading (``srt``, ``stt``) terms scaled by
-        :meth:`scales`; with ``step_floor``, never below the last added step's own residual (a step whose odometry
-        and scan matching disagree keeps noise that spans the disagreement, up to ``base``)."""
+        :meth:`scales`; never below ``step``, a step's own residuals as :meth:`add` returned them (a step whose
+        odometry and scan matching disagree keeps noise that spans the disagreement, up to ``base``)."""
         xy, rad = self.scales()
-        if step_floor:
-            last_xy, last_rad = self._last
-            xy = min(max(xy, last_xy if last_xy is not None else 0.0), 1.0)
-            rad = min(max(rad, last_rad if last_rad is not None else 0.0), 1.0)
+        if step is not None:
+            step_xy, step_rad = step
+            xy = min(max(xy, step_xy if step_xy is not None else 0.0), 1.0)
+            rad = min(max(rad, step_rad if step_rad is not None else 0.0), 1.0)
         return MotionNoise(base.srr * xy, base.srt * rad, base.str_ * xy, base.stt * rad)
 
 

@@ -70,13 +70,13 @@ def test_a_step_whose_odometry_and_scan_matching_disagree_keeps_noise_that_spans
     rng = np.random.default_rng(2)
     scale = NoiseScale()
     for odom, matched in _residuals(0.1, 100, rng):
-        scale.add(odom, matched, MotionNoise())
-    usual = scale.noise(MotionNoise(), step_floor=True)
+        last = scale.add(odom, matched, MotionNoise())
+    usual = scale.noise(MotionNoise(), step=last)
     assert usual.srt < 0.05  # a good log: a fraction of gmapping's 0.2
     odom = np.array([1.0, 0.0, 0.0])
     std = motion_std(odom, MotionNoise())
-    scale.add(odom, odom + np.array([0.0, 0.0, 0.5 * std[2]]), MotionNoise())  # half a model σ off in heading
-    assert np.isclose(scale.noise(MotionNoise(), step_floor=True).srt, 0.2 * 0.5)
+    step = scale.add(odom, odom + np.array([0.0, 0.0, 0.5 * std[2]]), MotionNoise())  # half a model σ off in heading
+    assert np.isclose(scale.noise(MotionNoise(), step=step).srt, 0.2 * 0.5)
     assert scale.noise(MotionNoise()).srt < 0.05  # without the floor, the usual scale
-    scale.add(odom, odom + np.array([0.0, 0.0, 5.0 * std[2]]), MotionNoise())  # far off: never above the model
-    assert np.isclose(scale.noise(MotionNoise(), step_floor=True).srt, 0.2)
+    step = scale.add(odom, odom + np.array([0.0, 0.0, 5.0 * std[2]]), MotionNoise())  # far off: never above the model
+    assert np.isclose(scale.noise(MotionNoise(), step=step).srt, 0.2)
