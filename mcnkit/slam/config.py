@@ -220,6 +220,14 @@ class SlamConfig:
     """... and heading."""
     loop_huber: float = 1e9
     """Loop edges whose error exceeds this many standard deviations pull linearly, not quadratically (Huber)."""
+    loop_solve_chi2: float = 1.0
+    """A loop match moves the map only when the estimate misses it by more than this squared Mahalanobis distance
+    (in the match's information); closer, its edge is kept for later solutions and nothing is solved.  Measured
+    with ``benchmarks/bench_buildings.py --slam-option=--slam.loop-solve-chi2=7.8`` (χ²'s 95 % point for 3
+    degrees of freedom), seeds 0-2: Acapulco 0.17 / 0.12 / 0.12 m ATE (0.19 / 0.23 / 0.21 at 1), Intel and FR079 a
+    little better, FHW and ACES unchanged within the seeds' spread, but the campus 0.27-0.37 m (0.25-0.32) and the
+    MIT Infinite Corridor, a 200 m corridor whose along-axis matches carry little information, 0.57-1.25 m
+    (0.45-0.69): kept at 1."""
     loop_max_chi2: float = 50.0
     """A loop edge whose squared Mahalanobis error after solving exceeds this is an outlier and dropped."""
     graph_step_sigma_m: float = 0.02

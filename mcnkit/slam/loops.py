@@ -125,7 +125,7 @@ class LoopCloser:
             return None
         j, z, info = found
         err = edge_errors(lineage, Edges.of([(j, k, z)], np.eye(3)))[0]
-        if float(err @ info @ err) < 1.0:
+        if float(err @ info @ err) < cfg.loop_solve_chi2:
             self._loops.append((j, k, z, info))
             self.stats.accepted += 1
             self.stats.accepted_nodes.append((j, k))

@@ -57,3 +57,21 @@ def test_a_loop_whose_drift_exceeds_the_first_search_window_is_closed_by_searchi
     assert closer.stats.rejected_border == 0
     assert solved is not None and len(solved) == len(truth)
     assert np.hypot(*(solved[last, :2] - truth[last, :2])) < 0.3 < 1.5 < np.hypot(*(lineage[last, :2] - truth[last, :2]))
+
+
+def test_a_loop_match_the_estimate_already_meets_within_loop_solve_chi2_is_kept_without_moving_the_map() -> None:
+    # The same lap with 0.12 m of drift by the end: the matches back at the start disagree with the estimate by a
+    # few of their standard deviations.  At the default bar (χ² 1) that moves the map; with a bar above their
+    # disagreement the edges are kept for later solutions and nothing is solved.
+    room = _room(np.random.default_rng(3))
+    truth = _lap()
+    lineage = truth + np.linspace(0.0, 1.0, len(truth))[:, None] * np.array([0.1, -0.06, 0.0])
+    outcomes = {}
+    for bar in (SlamConfig().loop_solve_chi2, 1e6):
+        cfg = SlamConfig(loop_solve_chi2=bar)
+        closer = LoopCloser(cfg, cfg.resolution_m)
+        solved = [closer.add(_seen(room, truth[k]), lineage[: k + 1]) for k in range(len(truth))]
+        outcomes[bar] = (closer.stats.accepted, closer.stats.optimizations, any(s is not None for s in solved))
+    default, lenient = outcomes[SlamConfig().loop_solve_chi2], outcomes[1e6]
+    assert default[1] > 0 and default[2]  # the default solves and moves the map
+    assert lenient[0] > 0 and lenient[1] == 0 and not lenient[2]  # loops accepted, never solved
