@@ -12,7 +12,11 @@ It prints and writes ``benchmarks/results/reference_consistency.{md,json}``:
 
 - hit cells of the estimate and of the reference, before and after refinement;
 - ATE RMSE of the estimate against the reference, before and after refining both;
-- how far refinement moved each trajectory (RMSE).
+- how far refinement moved each trajectory (RMSE);
+- the same hit-cell comparison per window of ``--window`` consecutive scans (both refined): in how many windows the
+  estimate's walls come out thinner, and the range of the ratio.  A deformation the scans support shows up as
+  windows where the reference is the thinner one; where the estimate departs from the reference most, the windows
+  say which of the two the scans agree with locally.
 
 Read it so: if the refined estimate hits *fewer* cells than the refined reference while the two stay 0.2 m apart, the
 scans do not say that the reference is the better trajectory, and the gap is not one that scan consistency closes.
@@ -65,7 +69,13 @@ def _rms_move(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((a[:, :2] - b[:, :2]) ** 2, axis=1))))
 
 
-def one(name: str, seed: int, data: Path) -> dict[str, object]:
+def _window_ratios(scans: list[Scan], est: np.ndarray, ref: np.ndarray, window: int) -> list[float]:
+    """Hit cells of the estimate over those of the reference, per run of ``window`` consecutive scans."""
+    return [hit_cells(scans[i : i + window], est[i : i + window]) / hit_cells(scans[i : i + window], ref[i : i + window])
+            for i in range(0, len(scans) - window + 1, window)]
+
+
+def one(name: str, seed: int, data: Path, window: int) -> dict[str, object]:
     log = data / BUILDINGS[name][0]
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "30", "--resolution", "0.05",
@@ -86,7 +96,10 @@ def one(name: str, seed: int, data: Path) -> dict[str, object]:
     def ate(a: np.ndarray, b: np.ndarray) -> float:
         return absolute_trajectory_error(Trajectory(est.stamps_ns, a), Trajectory(est.stamps_ns, b), match="order").rmse_m
 
-    return {"building": name, "seed": seed, "scans": len(scans),
+    ratios = _window_ratios(scans, est_r, ref_r, window)
+    return {"building": name, "seed": seed, "scans": len(scans), "window_scans": window,
+            "windows": len(ratios), "windows_estimate_thinner": int(sum(r < 1.0 for r in ratios)),
+            "window_ratio_min": min(ratios), "window_ratio_max": max(ratios),
             "hit_cells_estimate": hit_cells(scans, est.poses), "hit_cells_reference": hit_cells(scans, gt.poses),
             "hit_cells_estimate_refined": hit_cells(scans, est_r),
             "hit_cells_reference_refined": hit_cells(scans, ref_r),
@@ -99,21 +112,25 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--only", nargs="+", choices=RADISH, help="a subset of the buildings (default: all six)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--window", type=int, default=20, help="scans per window of the local comparison (default 20)")
     parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     args = parser.parse_args()
     data = _data_dir(args.data)
     rows = []
     lines = ["| building | ATE m: filter (trajectory_tracked) / both refined | hit cells estimate / reference | refined: estimate / "
-             "reference | refinement moved estimate / reference (m) |", "|---|---|---|---|---|"]
+             "reference | refinement moved estimate / reference (m) | windows: estimate thinner (ratio range) |",
+             "|---|---|---|---|---|---|"]
     for name in args.only or RADISH:
-        row = one(name, args.seed, data)
+        row = one(name, args.seed, data, args.window)
         rows.append(row)
         lines.append(
             f"| {name} | {row['ate_m']:.3f} / {row['ate_refined_m']:.3f} | {row['hit_cells_estimate']} / "
             f"{row['hit_cells_reference']} ({row['hit_cells_estimate'] / row['hit_cells_reference']:.3f}) | "  # type: ignore[operator]
             f"{row['hit_cells_estimate_refined']} / {row['hit_cells_reference_refined']} "
             f"({row['hit_cells_estimate_refined'] / row['hit_cells_reference_refined']:.3f}) | "  # type: ignore[operator]
-            f"{row['refinement_moved_estimate_m']:.3f} / {row['refinement_moved_reference_m']:.3f} |")
+            f"{row['refinement_moved_estimate_m']:.3f} / {row['refinement_moved_reference_m']:.3f} | "
+            f"{row['windows_estimate_thinner']} of {row['windows']} ({row['window_ratio_min']:.3f}–"
+            f"{row['window_ratio_max']:.3f}) |")
         print(lines[-1], flush=True)
     table = "\n".join(lines)
     OUT.mkdir(parents=True, exist_ok=True)
@@ -122,7 +139,9 @@ def main() -> int:
         f"`mcnkit slam` seed {args.seed}, default configuration, against the log's corrected poses. Hit cells: cells "
         "hit by the returns up to 20 m (`mcnkit.metrics.hit_cells`; fewer = thinner walls). Refined: both "
         "trajectories (the estimate from the filter's `trajectory_tracked.tum`) moved by `mcnkit.slam.refine.refine_poses`, "
-        "the refinement `mcnkit slam` applies to `trajectory.tum`.\n\n" + table + "\n")
+        "the refinement `mcnkit slam` applies to `trajectory.tum`. Windows: the same ratio (refined estimate / refined "
+        f"reference) per run of {args.window} consecutive scans; under 1, the estimate's walls are the thinner.\n\n"
+        + table + "\n")
     (OUT / "reference_consistency.json").write_text(json.dumps({"seed": args.seed, "rows": rows}, indent=2) + "\n")
     print(table)
     return 0
