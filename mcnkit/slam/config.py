@@ -220,16 +220,24 @@ class SlamConfig:
     """... and heading."""
     loop_huber: float = 1e9
     """Loop edges whose error exceeds this many standard deviations pull linearly, not quadratically (Huber)."""
-    loop_solve_chi2: float = 1.0
+    loop_solve_chi2: float = 7.8
     """A loop match moves the map only when the estimate misses it by more than this squared Mahalanobis distance
-    (in the match's information); closer, its edge is kept for later solutions and nothing is solved.  Measured
-    with ``benchmarks/bench_buildings.py --slam-option=--slam.loop-solve-chi2=7.8`` (χ²'s 95 % point for 3
-    degrees of freedom), seeds 0-2: Acapulco 0.17 / 0.12 / 0.12 m ATE (0.19 / 0.23 / 0.21 at 1), Intel and FR079 a
-    little better, FHW and ACES unchanged within the seeds' spread, but the campus 0.27-0.37 m (0.25-0.32) and the
-    MIT Infinite Corridor, a 200 m corridor whose along-axis matches carry little information, 0.57-1.25 m
-    (0.45-0.69): kept at 1."""
+    (in the match's information; 7.8: χ²'s 95 % point for 3 degrees of freedom); closer, its edge is kept for later
+    solutions and nothing is solved.  Every solution bends the map a little (a match errs by a few centimetres): in
+    an open hall seen out to 50 m the particles' maps already align a revisit, and at a bar of 1 the Acapulco
+    convention centre was solved 75 times and ended 0.19-0.23 m off its reference (0.12-0.14 m now).  Alone, this
+    bar left the MIT Infinite Corridor's along-axis drift uncorrected (0.57-1.25 m); with ``graph_step_match_info``
+    it is 0.55-0.74 m (0.45-0.69 m at 1 without it)."""
     loop_max_chi2: float = 50.0
     """A loop edge whose squared Mahalanobis error after solving exceeds this is an outlier and dropped."""
+    graph_step_match_info: bool = True
+    """In the pose graph, each step between two updates also carries the information of the newer update's scan
+    match (:func:`mcnkit.slam.proposal.match_information` on the map before it, capped like a loop edge at
+    ``loop_sigma_xy_m`` / ``loop_sigma_rad``) on top of the motion model's ``graph_step_sigma_*``: stiff where the
+    scan pinned the robot down, as loose as the motion model along a corridor's axis, so a loop's correction lands
+    on the steps that could slip instead of being spread evenly (ACES seed 2 had drifted 0.61 m before its first
+    loop; spread evenly, 0.17 m ATE was left).  Measured in the README ("SLAM on real buildings"), with
+    ``loop_solve_chi2`` 7.8."""
     graph_step_sigma_m: float = 0.02
     """Stated precision of the filter's step between two updates in the pose graph: this much translation ..."""
     graph_step_sigma_per_m: float = 0.03

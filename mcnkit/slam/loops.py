@@ -14,8 +14,9 @@ driven so far, and at each new node:
    (mean likelihood of the points) reaches ``loop_min_score`` and it is unique: the best pose found when the
    neighbourhood of the first match is excluded scores clearly lower (corridors are ambiguous along their axis).
 3. **Graph**: nodes are connected by the filter's own relative poses (the best lineage's, between consecutive
-   updates) and by the accepted loop matches; the graph is solved (:func:`mcnkit.slam.posegraph.optimize`) when
-   a new loop match disagrees with the current estimate.  A loop edge whose error after the solution stays far
+   updates; weighted by the motion model and by what each update's scan match pinned down) and by the accepted
+   loop matches; the graph is solved (:func:`mcnkit.slam.posegraph.optimize`) when a new loop match disagrees
+   with the current estimate by more than its precision says (``loop_solve_chi2``).  A loop edge whose error after the solution stays far
    beyond its stated precision is an outlier: it is dropped and the graph solved again.
 
 The corrected poses go back to the filter, which rebuilds its particles' maps on them (see
@@ -95,18 +96,21 @@ class LoopCloser:
         self._loops: list[tuple[int, int, F64, F64]] = []  # (old node, new node, relative pose, information)
         self._pending: list[tuple[int, int, F64, F64, F64]] = []  # unconfirmed matches, + the new node's matched pose
         self.stats = LoopStats()
+        self._step_info: list[F64] = []  # per node: its scan match's information (3, 3), in its own frame
         self.attempts: list[LoopAttempt] = []
         """Every loop match that was scored, accepted or not (for benchmarks and plots)."""
 
     def __len__(self) -> int:
         return len(self.points)
 
-    def add(self, points_base: F64, lineage: F64) -> F64 | None:
+    def add(self, points_base: F64, lineage: F64, step_info: F64 | None = None) -> F64 | None:
         """Adds the newest node and tries to close a loop from it.
 
         Args:
             points_base: the node's scan end points (M, 2), base frame (hits only).
             lineage: the best particle's poses (K, 3) at every node so far, the new one last.
+            step_info: the information (3, 3) of the node's scan match, in the node's own frame: added to the step
+                from the previous node (``SlamConfig.graph_step_match_info``); None: the motion model's alone.
 
         Returns:
             The solved poses (K, 3) of every node when a loop match moved them, else None.
@@ -118,6 +122,7 @@ class LoopCloser:
         step = float(np.hypot(*(lineage[k, :2] - lineage[k - 1, :2]))) if k else 0.0
         self.travelled_m.append((self.travelled_m[-1] if k else 0.0) + step)
         self.points.append(thin_points(points_base, 2 * self.resolution_m).astype(np.float32))
+        self._step_info.append(np.zeros((3, 3)) if step_info is None else np.asarray(step_info, np.float64))
         if not cfg.loop_closure or k == 0 or len(self.points[k]) < 10:
             return None
         found = self._search(k, lineage)
@@ -318,6 +323,12 @@ class LoopCloser:
         info = np.zeros((k - 1, 3, 3))
         info[:, 0, 0] = info[:, 1, 1] = 1.0 / sxy**2
         info[:, 2, 2] = 1.0 / sth**2
+        if self.config.graph_step_match_info:
+            body = np.array(self._step_info[1:k])  # (k-1, 3, 3): node m's match, m = 1..k-1
+            c, s = np.cos(z[:, 2]), np.sin(z[:, 2])
+            rot = np.zeros((k - 1, 3, 3))
+            rot[:, 0, 0], rot[:, 0, 1], rot[:, 1, 0], rot[:, 1, 1], rot[:, 2, 2] = c, -s, s, c, 1.0
+            info = info + rot @ body @ rot.transpose(0, 2, 1)
         seq = Edges(np.arange(k - 1), np.arange(1, k), z, info, np.zeros(k - 1, bool))
         n = len(self._loops)
         loops = Edges(np.array([lp[0] for lp in self._loops], np.int64).reshape(n),
