@@ -47,7 +47,7 @@ from mcnkit.slam.correlative import LikelihoodGrid
 from mcnkit.slam.loops import LoopCloser
 from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.motion import MotionNoise, NoiseScale, motion_std, sample_motion
-from mcnkit.slam.proposal import cap_information, match_information, proposal_covariance
+from mcnkit.slam.proposal import proposal_covariance
 from mcnkit.slam.raycast import ray_cast_counts, ray_cast_strips
 from mcnkit.slam.refine import REFINE_RANGE_M, refine_poses
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
@@ -369,15 +369,7 @@ class FastSlam:
         self._linear_m = 0.0
         self._angular_rad = 0.0
         self.n_updates += 1
-        step_info = None  # what this update's scan pinned down, in the robot's frame (SlamConfig.graph_step_match_info)
-        if cfg.graph_step_match_info and grid_before is not None and not first:
-            node = self._history[self.n_updates - 1, self.best_index]
-            info_w = match_information(grid_before, hits_b, node, cfg.proposal_beams)
-            cap = np.array([1.0 / cfg.loop_sigma_xy_m**2, 1.0 / cfg.loop_sigma_xy_m**2, 1.0 / cfg.loop_sigma_rad**2])
-            c, s = math.cos(node[2]), math.sin(node[2])
-            rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-            step_info = cap_information(rot.T @ info_w @ rot, cap)
-        corrected = self.loops.add(hits_b, self._history[: self.n_updates, self.best_index], step_info)
+        corrected = self.loops.add(hits_b, self._history[: self.n_updates, self.best_index], grid_before)
         if corrected is not None:
             self._reanchor(corrected)
         best = self.best_index

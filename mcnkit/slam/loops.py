@@ -16,8 +16,9 @@ driven so far, and at each new node:
 3. **Graph**: nodes are connected by the filter's own relative poses (the best lineage's, between consecutive
    updates; weighted by the motion model and by what each update's scan match pinned down) and by the accepted
    loop matches; the graph is solved (:func:`mcnkit.slam.posegraph.optimize`) when a new loop match disagrees
-   with the current estimate by more than its precision says (``loop_solve_chi2``).  A loop edge whose error after the solution stays far
-   beyond its stated precision is an outlier: it is dropped and the graph solved again.
+   with the current estimate by more than its precision says (``loop_solve_chi2``).  A loop edge whose error
+   after the solution stays far beyond its stated precision is an outlier: it is dropped and the graph solved
+   again.
 
 The corrected poses go back to the filter, which rebuilds its particles' maps on them (see
 :meth:`mcnkit.slam.FastSlam`).
@@ -97,20 +98,23 @@ class LoopCloser:
         self._pending: list[tuple[int, int, F64, F64, F64]] = []  # unconfirmed matches, + the new node's matched pose
         self.stats = LoopStats()
         self._step_info: list[F64] = []  # per node: its scan match's information (3, 3), in its own frame
+        self._cap = np.array([1.0 / config.loop_sigma_xy_m**2, 1.0 / config.loop_sigma_xy_m**2,
+                              1.0 / config.loop_sigma_rad**2])  # the most any one match is said to pin down
         self.attempts: list[LoopAttempt] = []
         """Every loop match that was scored, accepted or not (for benchmarks and plots)."""
 
     def __len__(self) -> int:
         return len(self.points)
 
-    def add(self, points_base: F64, lineage: F64, step_info: F64 | None = None) -> F64 | None:
+    def add(self, points_base: F64, lineage: F64, grid: LikelihoodGrid | None = None) -> F64 | None:
         """Adds the newest node and tries to close a loop from it.
 
         Args:
             points_base: the node's scan end points (M, 2), base frame (hits only).
             lineage: the best particle's poses (K, 3) at every node so far, the new one last.
-            step_info: the information (3, 3) of the node's scan match, in the node's own frame: added to the step
-                from the previous node (``SlamConfig.graph_step_match_info``); None: the motion model's alone.
+            grid: the likelihood field of the map the node's scan was matched against (the best particle's, before
+                this update): what the scan pins down there weights the step from the previous node
+                (``SlamConfig.graph_step_match_info``); None: the motion model alone.
 
         Returns:
             The solved poses (K, 3) of every node when a loop match moved them, else None.
@@ -122,7 +126,9 @@ class LoopCloser:
         step = float(np.hypot(*(lineage[k, :2] - lineage[k - 1, :2]))) if k else 0.0
         self.travelled_m.append((self.travelled_m[-1] if k else 0.0) + step)
         self.points.append(thin_points(points_base, 2 * self.resolution_m).astype(np.float32))
-        self._step_info.append(np.zeros((3, 3)) if step_info is None else np.asarray(step_info, np.float64))
+        weigh = cfg.graph_step_match_info and cfg.loop_closure and k > 0
+        self._step_info.append(self._information(grid, points_base, lineage[k], float(lineage[k, 2]))
+                               if weigh and grid is not None else np.zeros((3, 3)))
         if not cfg.loop_closure or k == 0 or len(self.points[k]) < 10:
             return None
         found = self._search(k, lineage)
@@ -223,7 +229,6 @@ class LoopCloser:
             return None
         self.stats.attempts += 1
         grid = likelihood_grid(pts_map, self.resolution_m, cfg.loop_sigma_m, win_xy + 1.0)
-        n = len(scan)
         best = match_scan(grid, scan, lineage[k], win_xy, win_rad, min_score=cfg.loop_min_explained)
         if best.score <= 0:
             self.stats.rejected_score += 1
@@ -259,18 +264,20 @@ class LoopCloser:
         if wrong > cfg.loop_max_contradiction:
             self.stats.rejected_contradiction += 1
             return None
-        del n
         # The match ties scan k to the part of the chain map it overlaps, i.e. to the chain's scans nearest to it:
         # the edge goes to the nearest one (tying it to j would add the chain's own drift between them).
         near = chain[np.argmin(np.hypot(lineage[chain, 0] - fine.pose[0], lineage[chain, 1] - fine.pose[1]))]
         z = relative(lineage[near], fine.pose)
-        # the information is measured in the world frame at the match; the edge error is in node near's frame
-        c, s = math.cos(lineage[near, 2]), math.sin(lineage[near, 2])
+        return int(near), z, self._information(grid, scan, fine.pose, float(lineage[near, 2]))
+
+    def _information(self, grid: LikelihoodGrid, scan: F64, pose: F64, frame_yaw: float) -> F64:
+        """What ``scan`` (M, 2) placed at ``pose`` on ``grid`` pins down (3, 3), at most the stated ``loop_sigma_*``
+        precision, turned into the frame of a node with heading ``frame_yaw`` (an edge's error is in the frame of
+        its first node; the curvature is measured in the world frame)."""
+        c, s = math.cos(frame_yaw), math.sin(frame_yaw)
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        info_world = match_information(grid, scan, fine.pose, cfg.proposal_beams)
-        cap = np.array([1.0 / cfg.loop_sigma_xy_m**2, 1.0 / cfg.loop_sigma_xy_m**2, 1.0 / cfg.loop_sigma_rad**2])
-        info = cap_information(rot.T @ info_world @ rot, cap)
-        return int(near), z, info
+        info_world = match_information(grid, scan, pose, self.config.proposal_beams)
+        return cap_information(rot.T @ info_world @ rot, self._cap)
 
     def _graph_distance(self, k: int) -> F64:
         """Path length (K,) from node ``k`` to every node through the graph, loop edges counting as short steps:
