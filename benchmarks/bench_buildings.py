@@ -186,7 +186,7 @@ def _table(runs: list[Run]) -> tuple[str, dict[str, dict[str, object]]]:
             f"{' / '.join(fmt(v) for v in rel) or '–'} | {' / '.join(f'{r.cpu_s:.0f}' for r in rs)} | "
             f"{' / '.join(f'{r.peak_rss_mb:.0f}' for r in rs)} | {' / '.join(str(r.loop_closures) for r in rs)} | "
             f"{rs[0].matched_by or '–'} | "
-            f"{' / '.join(f'{r.hit_cells / r.reference_hit_cells:.3f}' for r in rs if r.hit_cells) or '–'} | "
+            f"{' / '.join(f'{r.hit_cells / r.reference_hit_cells:.3f}' for r in rs if r.hit_cells and r.reference_hit_cells) or '–'} | "
             f"{'meets' if ok else 'misses'} |"
         )
     return "\n".join(lines), verdicts
