@@ -31,6 +31,7 @@ import sys
 import tempfile
 import time
 import warnings
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -84,17 +85,26 @@ def _data_dir(arg: str | None) -> Path:
     return Path(env) if env else ROOT.parent / "shared" / "data"
 
 
+def slam_command(log: Path, seed: int, out: Path, options: Sequence[str] = ()) -> list[str]:
+    """The issue's documented command, ``mcnkit slam LOG --particles 30 --resolution 0.05 --out DIR``, as this
+    interpreter runs it (no progress bar; ``options`` appended)."""
+    return [sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "30", "--resolution", "0.05",
+            "--seed", str(seed), "--out", str(out), "--no-progress", *options]
+
+
+SLAM_ENV = {**os.environ, "RERUN_ANALYTICS": "0"}
+"""The environment benchmarks run ``mcnkit slam`` in (Rerun analytics off)."""
+
+
 def _run(name: str, seed: int, data: Path, out: Path, options: list[str]) -> Run:
     from mcnkit.io import open_log
     from mcnkit.metrics import absolute_trajectory_error, hit_cells, read_relations, read_tum, relations_error
 
     log_rel, rel_rel = BUILDINGS[name]
     log = data / log_rel
-    cmd = [sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "30", "--resolution", "0.05",
-           "--seed", str(seed), "--out", str(out), "--no-progress", *options]
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env={**os.environ,
-                                                                                         "RERUN_ANALYTICS": "0"})
+    proc = subprocess.Popen(slam_command(log, seed, out, options), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env=SLAM_ENV)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     err = proc.stderr.read().decode() if proc.stderr else ""

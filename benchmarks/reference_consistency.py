@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
@@ -40,7 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_buildings import BUILDINGS, _data_dir  # noqa: E402  (the same logs and data folder)
+from bench_buildings import BUILDINGS, SLAM_ENV, _data_dir, slam_command  # noqa: E402  (the same logs, data folder and command)
 
 from mcnkit.geometry import compose  # noqa: E402
 from mcnkit.io import open_log  # noqa: E402
@@ -78,10 +77,8 @@ def _window_ratios(scans: list[Scan], est: np.ndarray, ref: np.ndarray, window: 
 def one(name: str, seed: int, data: Path, window: int) -> dict[str, object]:
     log = data / BUILDINGS[name][0]
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "30", "--resolution", "0.05",
-               "--seed", str(seed), "--out", str(Path(tmp) / "out"), "--no-progress"]
-        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                       env={**os.environ, "RERUN_ANALYTICS": "0"})
+        subprocess.run(slam_command(log, seed, Path(tmp) / "out"), check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL, env=SLAM_ENV)
         est = read_tum(Path(tmp) / "out" / "trajectory_tracked.tum")  # the filter's, before mcnkit's refinement
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

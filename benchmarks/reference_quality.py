@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
@@ -42,7 +41,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_buildings import _data_dir  # noqa: E402  (the same data folder)
+from bench_buildings import SLAM_ENV, _data_dir, slam_command  # noqa: E402  (the same data folder and command)
 
 from mcnkit.io import open_log  # noqa: E402
 from mcnkit.metrics import Relations, absolute_trajectory_error, read_relations, read_tum, relations_error  # noqa: E402
@@ -91,10 +90,8 @@ def _on_stamps(rel: Relations, stamps_ns: np.ndarray, tolerance_s: float = 0.005
 
 def one(seed: int, full: Path, rel: Relations, ref: Trajectory) -> dict[str, float | int]:
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "mcnkit.cli", "slam", str(full), "--particles", "30", "--resolution", "0.05",
-               "--seed", str(seed), "--out", str(Path(tmp) / "out"), "--no-progress"]
-        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                       env={**os.environ, "RERUN_ANALYTICS": "0"})
+        subprocess.run(slam_command(full, seed, Path(tmp) / "out"), check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL, env=SLAM_ENV)
         est = read_tum(Path(tmp) / "out" / "trajectory.tum")
     revisit = np.abs(rel.t2_ns - rel.t1_ns) > REVISIT_S * 1e9
     shared = _on_stamps(rel, ref.stamps_ns)
