@@ -16,10 +16,15 @@ It prints and writes ``benchmarks/results/reference_consistency.{md,json}``:
 - the same hit-cell comparison per window of ``--window`` consecutive scans (both refined): in how many windows the
   estimate's walls come out thinner, and the range of the ratio.  A deformation the scans support shows up as
   windows where the reference is the thinner one; where the estimate departs from the reference most, the windows
-  say which of the two the scans agree with locally.
+  say which of the two the scans agree with locally;
+- the relations the scans themselves measure (:func:`mcnkit.slam.scanrelations.scan_relations`: pairs of scans
+  matched onto each other, favouring no trajectory), and the Kümmerle relations error of the estimate, the
+  reference and both refined on them: between consecutive scans (the local shape) and between scans of two passes
+  through one place (revisits: the global shape, which only consistently closed loops get right).
 
 Read it so: if the refined estimate hits *fewer* cells than the refined reference while the two stay 0.2 m apart, the
-scans do not say that the reference is the better trajectory, and the gap is not one that scan consistency closes.
+scans do not say that the reference is the better trajectory, and the gap is not one that scan consistency closes;
+likewise if the estimate's relations error is no larger than the reference's, sequential and at revisits.
 
     .venv/bin/python benchmarks/reference_consistency.py [--only fhw acapulco] [--seed 0]
 """
@@ -41,27 +46,25 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_buildings import BUILDINGS, SLAM_ENV, _data_dir, slam_command  # noqa: E402  (the same logs, data folder and command)
 
-from mcnkit.geometry import compose  # noqa: E402
+from mcnkit.geometry import compose, inverse, wrap_angle  # noqa: E402
 from mcnkit.io import open_log  # noqa: E402
-from mcnkit.metrics import absolute_trajectory_error, hit_cells, read_tum  # noqa: E402
+from mcnkit.metrics import (  # noqa: E402
+    Relations,
+    absolute_trajectory_error,
+    hit_cells,
+    match_stamps,
+    read_relations,
+    read_tum,
+    relations_error,
+)
 from mcnkit.slam.refine import REFINE_RANGE_M, refine_poses  # noqa: E402
+from mcnkit.slam.scanrelations import revisit_pairs, scan_relations, scan_returns, sequential_pairs  # noqa: E402
 from mcnkit.types import Scan, Trajectory  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results"
 RADISH = ("aces", "fr079", "fr101", "fhw", "acapulco", "intel")
-
-
-def _returns_base(scans: list[Scan], max_range_m: float = REFINE_RANGE_M) -> list[np.ndarray]:
-    """Each scan's returns (M, 2) in the base frame, up to ``max_range_m``."""
-    out = []
-    for scan in scans:
-        spec, r = scan.spec, scan.ranges_m.astype(np.float64)
-        use = scan.valid & (r < min(spec.range_max_m, max_range_m))
-        a = spec.angles_rad[use]
-        mount = spec.base_to_laser.as_array()
-        local = np.column_stack([r[use] * np.cos(a), r[use] * np.sin(a), np.zeros(int(use.sum()))])
-        out.append(compose(mount, local)[:, :2])
-    return out
+WHO = ("estimate", "estimate_refined", "reference", "reference_refined")
+"""The trajectories scored on the scan relations: the filter's, the reference, and each refined."""
 
 
 def _rms_move(a: np.ndarray, b: np.ndarray) -> float:
@@ -87,13 +90,23 @@ def one(name: str, seed: int, data: Path, window: int) -> dict[str, object]:
             scans = [frame.scan for frame in reader.frames()]
     if gt is None or not len(gt) == len(est) == len(scans):
         raise SystemExit(f"{name}: needs one reference pose and one estimated pose per scan")
-    returns = _returns_base(scans)
+    returns = scan_returns(scans, REFINE_RANGE_M)
     est_r, ref_r = (refine_poses(p, returns, 0.05) for p in (est.poses, gt.poses))
 
     def ate(a: np.ndarray, b: np.ndarray) -> float:
         return absolute_trajectory_error(Trajectory(est.stamps_ns, a), Trajectory(est.stamps_ns, b), match="order").rmse_m
 
     ratios = _window_ratios(scans, est_r, ref_r, window)
+    every_return = scan_returns(scans, np.inf)
+    trajectories = {"estimate": est.poses, "estimate_refined": est_r, "reference": gt.poses, "reference_refined": ref_r}
+    relations = {}
+    for kind, pairs in (("sequential", sequential_pairs(len(scans))), ("revisits", revisit_pairs(gt.poses))):
+        rel = scan_relations(every_return, est.stamps_ns, pairs, list(trajectories.values()))
+        for who, poses in trajectories.items():
+            err = relations_error(Trajectory(est.stamps_ns, poses), rel) if len(rel) else None
+            relations[f"{kind}_{who}"] = {"n": len(rel), "pairs": len(pairs),
+                                          "translation_m": err.translation_mean_m if err else float("nan"),
+                                          "rotation_deg": err.rotation_mean_deg if err else float("nan")}
     return {"building": name, "seed": seed, "scans": len(scans), "window_scans": window,
             "windows": len(ratios), "windows_estimate_thinner": int(sum(r < 1.0 for r in ratios)),
             "window_ratio_min": min(ratios), "window_ratio_max": max(ratios),
@@ -102,7 +115,39 @@ def one(name: str, seed: int, data: Path, window: int) -> dict[str, object]:
             "hit_cells_reference_refined": hit_cells(scans, ref_r),
             "ate_m": ate(est.poses, gt.poses), "ate_refined_m": ate(est_r, ref_r),
             "refinement_moved_estimate_m": _rms_move(est.poses, est_r),
-            "refinement_moved_reference_m": _rms_move(gt.poses, ref_r)}
+            "refinement_moved_reference_m": _rms_move(gt.poses, ref_r), "scan_relations": relations}
+
+
+def yardstick(seed: int, data: Path) -> dict[str, float | int]:
+    """The scan relations checked where ground truth exists: on MIT CSAIL, the pairs of the Kümmerle et al. relations
+    measured by :func:`scan_relations` (searched around ``mcnkit slam``'s trajectory), scored against those relations,
+    next to the trajectory's own relations error on the same pairs."""
+    log, relations_file = data / "reallab" / "mit-csail" / "mit-csail.clf", data / "reallab" / "mit-csail" / "mit-csail.relations"
+    with tempfile.TemporaryDirectory() as tmp:
+        subprocess.run(slam_command(log, seed, Path(tmp) / "out"), check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL, env=SLAM_ENV)
+        est = read_tum(Path(tmp) / "out" / "trajectory.tum")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with open_log(log) as reader:
+            frames = list(reader.frames())
+    stamps = np.array([frame.stamp_ns for frame in frames], np.int64)
+    if len(stamps) != len(est):
+        raise SystemExit(f"{log}: needs one estimated pose per scan")
+    truth = read_relations(relations_file)
+    i, j = match_stamps(stamps, truth.t1_ns, 0.005), match_stamps(stamps, truth.t2_ns, 0.005)
+    ok = np.flatnonzero((i >= 0) & (j >= 0))
+    measured = scan_relations(scan_returns([frame.scan for frame in frames], np.inf), stamps,
+                              np.column_stack([i[ok], j[ok]]), [est.poses])
+    # the ground-truth relations of the pairs kept, re-stamped with the scans' own stamps
+    by_pair = {(int(stamps[i[k]]), int(stamps[j[k]])): k for k in ok}
+    kept = np.array([by_pair[(int(a), int(b))] for a, b in zip(measured.t1_ns, measured.t2_ns, strict=True)], np.int64)
+    miss = compose(inverse(truth.delta[kept]), measured.delta)  # the Kümmerle error of the measured relations
+    ours = relations_error(est, Relations(truth.t1_ns[kept], truth.t2_ns[kept], truth.delta[kept]))
+    return {"seed": seed, "relations": len(truth), "measured": len(measured),
+            "scan_relations_vs_truth_m": float(np.mean(np.hypot(miss[:, 0], miss[:, 1]))),
+            "scan_relations_vs_truth_deg": float(np.degrees(np.mean(np.abs(wrap_angle(miss[:, 2]))))),
+            "estimate_vs_truth_m": ours.translation_mean_m, "estimate_vs_truth_deg": ours.rotation_mean_deg}
 
 
 def main() -> int:
@@ -117,6 +162,8 @@ def main() -> int:
     lines = ["| building | ATE m: filter (trajectory_tracked) / both refined | hit cells estimate / reference | refined: estimate / "
              "reference | refinement moved estimate / reference (m) | windows: estimate thinner (ratio range) |",
              "|---|---|---|---|---|---|"]
+    relation_lines = ["| building | sequential relations | m: " + " / ".join(WHO) + " | ° | revisit relations | m | ° |",
+                      "|---|---|---|---|---|---|---|"]
     for name in args.only or RADISH:
         row = one(name, args.seed, data, args.window)
         rows.append(row)
@@ -129,7 +176,23 @@ def main() -> int:
             f"{row['windows_estimate_thinner']} of {row['windows']} ({row['window_ratio_min']:.3f}–"
             f"{row['window_ratio_max']:.3f}) |")
         print(lines[-1], flush=True)
+        rel = row["scan_relations"]
+        assert isinstance(rel, dict)
+        relation_lines.append(f"| {name} | " + " | ".join(
+            f"{rel[f'{kind}_estimate_refined']['n']} | "
+            + " / ".join(f"{rel[f'{kind}_{who}']['translation_m']:.3f}" for who in WHO) + " | "
+            + " / ".join(f"{rel[f'{kind}_{who}']['rotation_deg']:.2f}" for who in WHO)
+            for kind in ("sequential", "revisits")) + " |")
+        print(relation_lines[-1], flush=True)
     table = "\n".join(lines)
+    relation_table = "\n".join(relation_lines)
+    check = yardstick(args.seed, data)
+    check_line = (f"The yardstick where ground truth exists (MIT CSAIL, `mcnkit slam` seed {args.seed}): of the "
+                  f"{check['relations']} Kümmerle et al. relations, {check['measured']} were measured by the scans; they "
+                  f"miss the ground-truth relations by {check['scan_relations_vs_truth_m']:.4f} m / "
+                  f"{check['scan_relations_vs_truth_deg']:.3f}° on average, where the estimate misses the same "
+                  f"relations by {check['estimate_vs_truth_m']:.4f} m / {check['estimate_vs_truth_deg']:.3f}°.")
+    print(check_line, flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "reference_consistency.md").write_text(
         "# Do the scans support the reference? (`benchmarks/reference_consistency.py`)\n\n"
@@ -138,9 +201,19 @@ def main() -> int:
         "trajectories (the estimate from the filter's `trajectory_tracked.tum`) moved by `mcnkit.slam.refine.refine_poses`, "
         "the refinement `mcnkit slam` applies to `trajectory.tum`. Windows: the same ratio (refined estimate / refined "
         f"reference) per run of {args.window} consecutive scans; under 1, the estimate's walls are the thinner.\n\n"
-        + table + "\n")
-    (OUT / "reference_consistency.json").write_text(json.dumps({"seed": args.seed, "rows": rows}, indent=2) + "\n")
+        + table + "\n\n"
+        "## Relations measured by the scans (`mcnkit.slam.scanrelations`)\n\n"
+        "Pairs of scans matched onto each other (exact search around every one of the four trajectories' relative "
+        "poses, the best match kept; pairs whose match explains less than 40 % of the scan or leaves a corridor's axis "
+        "free dropped), then each trajectory scored on them with the Kümmerle relations metric (mean translation and "
+        "heading error). Sequential: scans 1 and 2 apart (the local shape). Revisits: scans at least 40 apart whose "
+        "reference poses lie within 2.5 m and 57° (the same place on two passes: the global shape). Columns: the number "
+        "of relations kept, then the error of " + ", ".join(WHO) + ". Lower: the scans agree better.\n\n"
+        + relation_table + "\n\n" + check_line + "\n")
+    (OUT / "reference_consistency.json").write_text(
+        json.dumps({"seed": args.seed, "rows": rows, "yardstick_mit_csail": check}, indent=2) + "\n")
     print(table)
+    print(relation_table)
     return 0
 
 

@@ -16,13 +16,16 @@ if TYPE_CHECKING:
     from mcnkit.metrics import Relations
     from mcnkit.types import Trajectory
 
-__all__ = ["add_eval_parser", "run_eval_ate", "run_eval_groundtruth", "run_eval_relations", "write_ground_truth"]
+__all__ = ["add_eval_parser", "run_eval_ate", "run_eval_consistency", "run_eval_groundtruth", "run_eval_relations",
+           "write_ground_truth"]
 
 
 _DESCRIPTION = """Score a trajectory, or write a log's ground truth as the TUM file the scores read:
 
   eval relations TRAJ RELATIONS   the Kümmerle et al. (2009) relations error
   eval ate TRAJ REFERENCE         ATE after rigid 2-D alignment, and RPE
+  eval consistency LOG TRAJ...    no reference needed: how well trajectories of a log agree with its own scans
+                                  (relations the scans measure, between consecutive scans and at revisits)
   eval groundtruth LOG OUT.tum    the reference trajectory a log carries (a Radish corrected CARMEN log's
                                   corrected poses, a ground-truth topic, a simulated log's true path)
 
@@ -43,7 +46,7 @@ def _add_matching_options(p: argparse.ArgumentParser, min_matched: int) -> None:
 
 
 def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Adds ``eval relations``, ``eval ate`` and ``eval groundtruth``."""
+    """Adds ``eval relations``, ``eval ate``, ``eval consistency`` and ``eval groundtruth``."""
     p: argparse.ArgumentParser = subparsers.add_parser(
         "eval", help="score a TUM trajectory (relations error, ATE/RPE), or write a log's ground truth as TUM",
         description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -67,6 +70,25 @@ def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
                         "order: the k-th pose of each (the same number of poses, one per scan of the same log)")
     _add_matching_options(a, 3)
     a.set_defaults(func=run_eval_ate)
+    c = sub.add_parser("consistency", help="how well trajectories agree with the log's own scans (no reference needed)",
+                       description="Score trajectories of one log on relations its own scans measure "
+                       "(mcnkit.slam.scanrelations): pairs of scans matched onto each other by an exact search around "
+                       "every given trajectory's relative pose, the best match kept, so no trajectory is favoured; "
+                       "pairs that explain under 40 %% of the scan or leave a corridor's axis free are dropped.  "
+                       "Sequential pairs (scans 1 and 2 apart) test the local shape; revisits (scans at least 40 "
+                       "apart whose poses in the first trajectory lie within 2.5 m) test the global shape, which only "
+                       "consistently closed loops get right.  Lower is better; compare trajectories of the same log "
+                       "(e.g. two runs, or a run and the log's corrected poses from 'mcnkit eval groundtruth').  On "
+                       "MIT CSAIL these relations miss the Kümmerle et al. ground truth by 0.026 m / 0.32 deg on "
+                       "average (benchmarks/results/reference_consistency.md).")
+    c.add_argument("log", type=Path, help="the log the trajectories were made from (CARMEN, .bag, rosbag2 folder, .mcap)")
+    c.add_argument("trajectories", type=Path, nargs="+", help="trajectories, TUM format, one pose per scan of the log")
+    c.add_argument("--match", choices=["stamp", "order"], default="stamp",
+                   help="stamp: each scan with the pose of its stamp (default); order: the k-th pose with the k-th scan")
+    c.add_argument("--tolerance-s", type=float, default=0.005, help="stamp matching tolerance in seconds (default 0.005)")
+    c.add_argument("--no-progress", action="store_true", help="no progress bar")
+    c.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    c.set_defaults(func=run_eval_consistency)
     g = sub.add_parser("groundtruth", help="write the ground-truth trajectory a log carries as TUM",
                        description="Write the reference trajectory of any log mcnkit reads as TUM (one pose per "
                        "line, the log's stamps): a Radish corrected CARMEN log's corrected poses, a bag's "
@@ -149,6 +171,85 @@ def run_eval_ate(args: argparse.Namespace) -> int:
             f"RPE {rpe.translation_mean_m:.4f} ± {rpe.translation_std_m:.4f} m, "
             f"{rpe.rotation_mean_deg:.3f} ± {rpe.rotation_std_deg:.3f} deg"
         )
+    return 0
+
+
+def _poses_per_scan(traj: Trajectory, stamps_ns: Any, path: Path, match: str, tolerance_s: float) -> Any:
+    """The trajectory's pose (N, 3) for each of the log's N scans, or :class:`_Refused`."""
+    import numpy as np
+
+    from mcnkit.metrics import match_stamps
+
+    if match == "order":
+        if len(traj) != len(stamps_ns):
+            raise _Refused(f"{path}: {len(traj)} poses but the log has {len(stamps_ns)} scans ('--match order' pairs "
+                           "the k-th pose with the k-th scan)")
+        return traj.poses
+    order = np.argsort(traj.stamps_ns, kind="stable")
+    if np.any(np.diff(traj.stamps_ns[order]) == 0):
+        raise _Refused(f"{path}: stamps repeat; use '--match order' if it holds one pose per scan of the log")
+    k = match_stamps(traj.stamps_ns[order], stamps_ns, tolerance_s)
+    if np.any(k < 0):
+        raise _Refused(f"{path}: {int(np.count_nonzero(k < 0))} of the log's {len(stamps_ns)} scans have no pose within "
+                       f"{tolerance_s} s: not a trajectory of this log, or one that skips scans")
+    return traj.poses[order[k]]
+
+
+def run_eval_consistency(args: argparse.Namespace) -> int:
+    """Prints, for each trajectory, its error on the relations the log's scans measure (see the command's help)."""
+    import warnings
+
+    import numpy as np
+
+    from mcnkit.exits import fail
+    from mcnkit.io import open_log
+    from mcnkit.metrics import read_tum, relations_error
+    from mcnkit.slam.scanrelations import revisit_pairs, scan_relations, scan_returns, sequential_pairs
+    from mcnkit.types import Trajectory as Traj
+
+    try:
+        trajectories = [_read(read_tum, path, "trajectory") for path in args.trajectories]
+    except _Refused as exc:
+        return fail(_command(args), exc)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the reader's notes on stamps and odometry: `mcnkit info` prints them
+        with open_log(args.log) as reader:
+            frames = list(reader.frames())
+    if len(frames) < 3:
+        return fail(_command(args), f"{args.log}: {len(frames)} scans: too few to measure relations")
+    stamps = np.array([frame.stamp_ns for frame in frames], np.int64)
+    try:
+        poses = [_poses_per_scan(t, stamps, p, args.match, args.tolerance_s)
+                 for t, p in zip(trajectories, args.trajectories, strict=True)]
+    except _Refused as exc:
+        return fail(_command(args), exc)
+    returns = scan_returns([frame.scan for frame in frames])
+    index = np.arange(len(frames), dtype=np.int64)  # relations stamped by scan number: degenerate stamps are fine
+    out: dict[str, Any] = {"log": str(args.log), "scans": len(frames), "trajectories": {}}
+    for kind, pairs in (("sequential", sequential_pairs(len(frames))), ("revisits", revisit_pairs(poses[0]))):
+        progress = None
+        if not args.no_progress:
+            from functools import partial
+
+            from tqdm import tqdm
+            progress = partial(tqdm, desc=f"{kind} pairs", unit="pair", leave=False)
+        rel = scan_relations(returns, index, pairs, poses, progress=progress)
+        out[f"{kind}_pairs"], out[f"{kind}_relations"] = len(pairs), len(rel)
+        for path, p in zip(args.trajectories, poses, strict=True):
+            row = out["trajectories"].setdefault(str(path), {})
+            err = relations_error(Traj(index, p), rel, 0.0) if len(rel) else None
+            row[kind] = {"translation_mean_m": err.translation_mean_m if err else None,
+                         "rotation_mean_deg": err.rotation_mean_deg if err else None}
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    print(f"{args.log}: {len(frames)} scans; relations measured by the scans: {out['sequential_relations']} sequential "
+          f"(of {out['sequential_pairs']} pairs), {out['revisits_relations']} at revisits (of {out['revisits_pairs']}); "
+          "mean error, lower = agrees better")
+    for path, row in out["trajectories"].items():
+        text = [f"{kind} {row[kind]['translation_mean_m']:.4f} m {row[kind]['rotation_mean_deg']:.3f} deg"
+                if row[kind]["translation_mean_m"] is not None else f"{kind} -" for kind in ("sequential", "revisits")]
+        print(f"  {path}: " + ", ".join(text))
     return 0
 
 

@@ -124,3 +124,34 @@ def test_groundtruth_of_a_corrected_carmen_log(tmp_path: Path, shared_data: Path
     assert "carries no ground-truth trajectory" in _err(capsys)
     assert not (tmp_path / "m.tum").exists()
     assert not list(tmp_path.glob(".*partial"))
+
+
+@pytest.mark.slow
+def test_consistency_needs_no_reference_and_flags_a_bent_trajectory(tmp_path: Path, shared_data: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """``mcnkit eval consistency``: a log's corrected poses bent by 0.5° of heading halfway round agree with the
+    scans between consecutive scans almost as well as before, but no longer where the robot comes back."""
+    from mcnkit.geometry import compose, relative
+
+    log = shared_data / "reallab/radish/aces-corrected.log.gz"
+    assert main(["eval", "groundtruth", str(log), str(tmp_path / "truth.tum")]) == 0
+    truth = read_tum(tmp_path / "truth.tum")
+    steps = relative(truth.poses[:-1], truth.poses[1:])
+    steps[len(steps) // 2, 2] += np.radians(0.5)
+    bent = [truth.poses[0]]
+    for step in steps:
+        bent.append(compose(bent[-1], step))
+    write_tum(tmp_path / "bent.tum", Trajectory(truth.stamps_ns, np.array(bent)))
+    capsys.readouterr()
+    assert main(["eval", "consistency", str(log), str(tmp_path / "truth.tum"), str(tmp_path / "bent.tum"),
+                 "--json", "--no-progress"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["scans"] == 440 and out["sequential_relations"] > 300 and out["revisits_relations"] > 20
+    truth_row, bent_row = (out["trajectories"][str(tmp_path / name)] for name in ("truth.tum", "bent.tum"))
+    assert bent_row["sequential"]["rotation_mean_deg"] < truth_row["sequential"]["rotation_mean_deg"] + 0.01
+    assert bent_row["revisits"]["translation_mean_m"] > truth_row["revisits"]["translation_mean_m"] + 0.05
+    # a trajectory that is not one pose per scan of the log is refused in one line
+    write_tum(tmp_path / "short.tum", Trajectory(truth.stamps_ns[:100], truth.poses[:100]))
+    assert main(["eval", "consistency", str(log), str(tmp_path / "short.tum"), "--no-progress"]) == 2
+    assert _err(capsys).startswith(f"mcnkit eval consistency: {tmp_path / 'short.tum'}: 340 of the log's 440 scans "
+                                   "have no pose")
