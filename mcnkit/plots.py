@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -16,7 +16,7 @@ from mcnkit.types import TernaryMap
 if TYPE_CHECKING:
     from mcnkit.mcn import Completion
 
-__all__ = ["TERNARY_CMAP", "completion_figure", "image_row", "plot_slam_state", "plot_ternary"]
+__all__ = ["TERNARY_CMAP", "completion_figure", "consistency_figure", "image_row", "plot_slam_state", "plot_ternary"]
 
 # free 0.0 -> light, unknown 0.5 -> grey, occupied 1.0 -> black (the viewer's AnnotationContext colours)
 TERNARY_CMAP = ListedColormap([(235 / 255,) * 3, (128 / 255,) * 3, (20 / 255,) * 3])
@@ -94,4 +94,47 @@ def completion_figure(completion: Completion, ranks: int | None = None, truth: T
     for ax in axes.ravel():
         ax.set_xticks([])
         ax.set_yticks([])
+    return fig
+
+
+def consistency_figure(
+    names: Sequence[str], poses: Sequence[NDArray[np.float64]], returns_base: Sequence[NDArray[np.float64]],
+    pairs: Mapping[str, NDArray[np.int64]], errors_m: Mapping[str, Sequence[NDArray[np.float64]]],
+    max_error_m: float = 0.1,
+) -> Figure:
+    """Where trajectories disagree with their log's scans (``mcnkit eval consistency --plot``): one panel per
+    trajectory, its scans drawn at its poses (grey), and each relation the scans measured drawn at its poses,
+    coloured by the trajectory's translation error on it (``pairs[kind]`` (K, 2) scan indices, ``errors_m[kind][t]``
+    (K,) per trajectory ``t``): sequential ones as dots at the first scan, revisits as lines between the two scans."""
+    from matplotlib.collections import LineCollection
+
+    fig = Figure(figsize=(6.0 * len(names), 6.5), layout="constrained")
+    axes = fig.subplots(1, len(names), squeeze=False)[0]
+    mappable = None
+    for t, (ax, name, p) in enumerate(zip(axes, names, poses, strict=True)):
+        step = max(1, len(p) // 400)  # at most ~400 scans drawn: the walls, not every return
+        for k in range(0, len(p), step):
+            c, s_ = np.cos(p[k, 2]), np.sin(p[k, 2])
+            r = returns_base[k]
+            ax.plot(p[k, 0] + c * r[:, 0] - s_ * r[:, 1], p[k, 1] + s_ * r[:, 0] + c * r[:, 1], ",", color="0.6")
+        ax.plot(p[:, 0], p[:, 1], color="0.3", lw=0.6)
+        title = [name]
+        for kind, pair in pairs.items():
+            err = np.asarray(errors_m[kind][t])
+            if not len(err):
+                continue
+            if kind == "revisits":
+                segments = np.stack([p[pair[:, 0], :2], p[pair[:, 1], :2]], axis=1)
+                lines = LineCollection(list(segments), cmap="inferno_r", linewidths=2.0, zorder=3)
+                lines.set_array(err)
+                lines.set_clim(0.0, max_error_m)
+                ax.add_collection(lines)
+            else:
+                mappable = ax.scatter(p[pair[:, 0], 0], p[pair[:, 0], 1], c=err, s=6, cmap="inferno_r", vmin=0.0,
+                                      vmax=max_error_m, zorder=4)
+            title.append(f"{kind} {float(np.mean(err)):.3f} m")
+        ax.set_aspect("equal")
+        ax.set_title("\n".join(title), fontsize=9)
+    if mappable is not None:
+        fig.colorbar(mappable, ax=list(axes), shrink=0.8, label="translation error on the relation (m)")
     return fig

@@ -86,6 +86,10 @@ def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
     c.add_argument("--match", choices=["stamp", "order"], default="stamp",
                    help="stamp: each scan with the pose of its stamp (default); order: the k-th pose with the k-th scan")
     c.add_argument("--tolerance-s", type=float, default=0.005, help="stamp matching tolerance in seconds (default 0.005)")
+    c.add_argument("--plot", type=Path, metavar="PNG",
+                   help="also draw where each trajectory disagrees with the scans: its scans at its poses, the "
+                        "relations coloured by its error on them (dots: sequential, lines: revisits)")
+    c.add_argument("--overwrite", action="store_true", help="replace the --plot file if it exists")
     c.add_argument("--no-progress", action="store_true", help="no progress bar")
     c.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     c.set_defaults(func=run_eval_consistency)
@@ -207,6 +211,15 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
     from mcnkit.slam.scanrelations import revisit_pairs, scan_relations, scan_returns, sequential_pairs
     from mcnkit.types import Trajectory as Traj
 
+    if args.plot is not None:
+        from mcnkit.outputs import Output, OutputError, check_outputs
+
+        if args.plot.suffix.lower() != ".png":
+            return fail(_command(args), f"{args.plot}: --plot writes a PNG file (a name ending in .png)")
+        try:
+            check_outputs([args.log, *args.trajectories], [Output(args.plot)], overwrite=args.overwrite)
+        except OutputError as exc:
+            return fail(_command(args), exc)
     try:
         trajectories = [_read(read_tum, path, "trajectory") for path in args.trajectories]
     except _Refused as exc:
@@ -226,6 +239,8 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
     returns = scan_returns([frame.scan for frame in frames])
     index = np.arange(len(frames), dtype=np.int64)  # relations stamped by scan number: degenerate stamps are fine
     out: dict[str, Any] = {"log": str(args.log), "scans": len(frames), "trajectories": {}}
+    measured: dict[str, Any] = {}
+    errors: dict[str, list[Any]] = {}
     for kind, pairs in (("sequential", sequential_pairs(len(frames))), ("revisits", revisit_pairs(poses[0]))):
         progress = None
         if not args.no_progress:
@@ -235,11 +250,17 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
             progress = partial(tqdm, desc=f"{kind} pairs", unit="pair", leave=False)
         rel = scan_relations(returns, index, pairs, poses, progress=progress)
         out[f"{kind}_pairs"], out[f"{kind}_relations"] = len(pairs), len(rel)
+        measured[kind] = np.column_stack([rel.t1_ns, rel.t2_ns])
+        errors[kind] = []
         for path, p in zip(args.trajectories, poses, strict=True):
             row = out["trajectories"].setdefault(str(path), {})
             err = relations_error(Traj(index, p), rel, 0.0) if len(rel) else None
+            errors[kind].append(err.translation_m if err else np.zeros(0))
             row[kind] = {"translation_mean_m": err.translation_mean_m if err else None,
                          "rotation_mean_deg": err.rotation_mean_deg if err else None}
+    if args.plot is not None:
+        _write_plot(args, poses, returns, measured, errors)
+        out["plot"] = str(args.plot)
     if args.json:
         print(json.dumps(out))
         return 0
@@ -251,6 +272,25 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
                 if row[kind]["translation_mean_m"] is not None else f"{kind} -" for kind in ("sequential", "revisits")]
         print(f"  {path}: " + ", ".join(text))
     return 0
+
+
+def _write_plot(args: argparse.Namespace, poses: list[Any], returns: list[Any], pairs: dict[str, Any],
+                errors: dict[str, list[Any]]) -> None:
+    """``--plot``: the consistency figure, written under a temporary name and renamed."""
+    from mcnkit.plots import consistency_figure
+
+    names = [path.name if len({p.name for p in args.trajectories}) == len(args.trajectories) else str(path)
+             for path in args.trajectories]
+    fig = consistency_figure(names, poses, returns, pairs, errors)
+    args.plot.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{args.plot.name}.", suffix=".partial.png", dir=args.plot.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=90)
+        os.replace(tmp, args.plot)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
 
 
 def write_ground_truth(log_path: Path, output: Path, *, overwrite: bool = False) -> int:

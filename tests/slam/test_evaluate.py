@@ -144,8 +144,10 @@ def test_consistency_needs_no_reference_and_flags_a_bent_trajectory(tmp_path: Pa
     write_tum(tmp_path / "bent.tum", Trajectory(truth.stamps_ns, np.array(bent)))
     capsys.readouterr()
     assert main(["eval", "consistency", str(log), str(tmp_path / "truth.tum"), str(tmp_path / "bent.tum"),
-                 "--json", "--no-progress"]) == 0
+                 "--json", "--no-progress", "--plot", str(tmp_path / "where.png")]) == 0
     out = json.loads(capsys.readouterr().out)
+    assert out["plot"] == str(tmp_path / "where.png")
+    assert (tmp_path / "where.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and not list(tmp_path.glob(".*partial*"))
     assert out["scans"] == 440 and out["sequential_relations"] > 300 and out["revisits_relations"] > 20
     truth_row, bent_row = (out["trajectories"][str(tmp_path / name)] for name in ("truth.tum", "bent.tum"))
     assert bent_row["sequential"]["rotation_mean_deg"] < truth_row["sequential"]["rotation_mean_deg"] + 0.01
@@ -155,3 +157,9 @@ def test_consistency_needs_no_reference_and_flags_a_bent_trajectory(tmp_path: Pa
     assert main(["eval", "consistency", str(log), str(tmp_path / "short.tum"), "--no-progress"]) == 2
     assert _err(capsys).startswith(f"mcnkit eval consistency: {tmp_path / 'short.tum'}: 340 of the log's 440 scans "
                                    "have no pose")
+    assert main(["eval", "consistency", str(log), str(tmp_path / "truth.tum"), "--plot", str(tmp_path / "x.pdf")]) == 2
+    assert "--plot writes a PNG file" in _err(capsys)
+    picture = (tmp_path / "where.png").read_bytes()
+    assert main(["eval", "consistency", str(log), str(tmp_path / "truth.tum"), "--plot", str(tmp_path / "where.png")]) == 2
+    assert "exists already (pass --overwrite to replace it)" in _err(capsys)
+    assert (tmp_path / "where.png").read_bytes() == picture
