@@ -21,7 +21,9 @@ a field of isolated dots would pin a corridor's axis where nothing does).
 
 Two kinds of pairs (:func:`sequential_pairs`, :func:`revisit_pairs`) test two things: consecutive scans test the
 local shape (each step's heading and length), scans of different passes through the same place (a loop) test the
-global shape, which a trajectory can only get right by closing its loops consistently.
+global shape, which a trajectory can only get right by closing its loops consistently.  What the scans cannot pin
+down goes unchecked: along a corridor's axis the pairs are dropped, so a step-length bias there is not seen, and a
+bend that every pass through a loop shares leaves the revisits consistent.
 
 Example (a square room seen from two poses; the match is good to the field's cells, 5 cm, and a trajectory whose
 second pose is 3° off scores 3° worse):
