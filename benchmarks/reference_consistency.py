@@ -58,7 +58,7 @@ from mcnkit.metrics import (  # noqa: E402
     relations_error,
 )
 from mcnkit.slam.refine import REFINE_RANGE_M, refine_poses  # noqa: E402
-from mcnkit.slam.scanrelations import revisit_pairs, scan_relations, scan_returns, sequential_pairs  # noqa: E402
+from mcnkit.slam.scanrelations import consistency, scan_relations, scan_returns  # noqa: E402
 from mcnkit.types import Scan, Trajectory  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results"
@@ -100,11 +100,9 @@ def one(name: str, seed: int, data: Path, window: int) -> dict[str, object]:
     every_return = scan_returns(scans, np.inf)
     trajectories = {"estimate": est.poses, "estimate_refined": est_r, "reference": gt.poses, "reference_refined": ref_r}
     relations = {}
-    for kind, pairs in (("sequential", sequential_pairs(len(scans))), ("revisits", revisit_pairs(gt.poses))):
-        rel = scan_relations(every_return, est.stamps_ns, pairs, list(trajectories.values()))
-        for who, poses in trajectories.items():
-            err = relations_error(Trajectory(est.stamps_ns, poses), rel) if len(rel) else None
-            relations[f"{kind}_{who}"] = {"n": len(rel), "pairs": len(pairs),
+    for kind, res in consistency(every_return, list(trajectories.values()), revisits_of=gt.poses).items():
+        for who, err in zip(trajectories, res.errors, strict=True):
+            relations[f"{kind}_{who}"] = {"n": len(res.relations), "pairs": res.pairs,
                                           "translation_m": err.translation_mean_m if err else float("nan"),
                                           "rotation_deg": err.rotation_mean_deg if err else float("nan")}
     return {"building": name, "seed": seed, "scans": len(scans), "window_scans": window,

@@ -207,9 +207,8 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
 
     from mcnkit.exits import fail
     from mcnkit.io import open_log
-    from mcnkit.metrics import read_tum, relations_error
-    from mcnkit.slam.scanrelations import revisit_pairs, scan_relations, scan_returns, sequential_pairs
-    from mcnkit.types import Trajectory as Traj
+    from mcnkit.metrics import read_tum
+    from mcnkit.slam.scanrelations import consistency, scan_returns
 
     if args.plot is not None:
         from mcnkit.outputs import Output, OutputError, check_outputs
@@ -237,29 +236,22 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
     except _Refused as exc:
         return fail(_command(args), exc)
     returns = scan_returns([frame.scan for frame in frames])
-    index = np.arange(len(frames), dtype=np.int64)  # relations stamped by scan number: degenerate stamps are fine
-    out: dict[str, Any] = {"log": str(args.log), "scans": len(frames), "trajectories": {}}
-    measured: dict[str, Any] = {}
-    errors: dict[str, list[Any]] = {}
-    for kind, pairs in (("sequential", sequential_pairs(len(frames))), ("revisits", revisit_pairs(poses[0]))):
-        progress = None
-        if not args.no_progress:
-            from functools import partial
+    progress = None
+    if not args.no_progress:
+        from tqdm import tqdm
 
-            from tqdm import tqdm
-            progress = partial(tqdm, desc=f"{kind} pairs", unit="pair", leave=False)
-        rel = scan_relations(returns, index, pairs, poses, progress=progress)
-        out[f"{kind}_pairs"], out[f"{kind}_relations"] = len(pairs), len(rel)
-        measured[kind] = np.column_stack([rel.t1_ns, rel.t2_ns])
-        errors[kind] = []
-        for path, p in zip(args.trajectories, poses, strict=True):
-            row = out["trajectories"].setdefault(str(path), {})
-            err = relations_error(Traj(index, p), rel, 0.0) if len(rel) else None
-            errors[kind].append(err.translation_m if err else np.zeros(0))
-            row[kind] = {"translation_mean_m": err.translation_mean_m if err else None,
-                         "rotation_mean_deg": err.rotation_mean_deg if err else None}
+        def progress(rows: Any, kind: str) -> Any:
+            return tqdm(rows, desc=f"{kind} pairs", unit="pair", leave=False)
+    results = consistency(returns, poses, progress=progress)
+    out: dict[str, Any] = {"log": str(args.log), "scans": len(frames), "trajectories": {}}
+    for kind, res in results.items():
+        out[f"{kind}_pairs"], out[f"{kind}_relations"] = res.pairs, len(res.relations)
+        for path, err in zip(args.trajectories, res.errors, strict=True):
+            out["trajectories"].setdefault(str(path), {})[kind] = {
+                "translation_mean_m": err.translation_mean_m if err else None,
+                "rotation_mean_deg": err.rotation_mean_deg if err else None}
     if args.plot is not None:
-        _write_plot(args, poses, returns, measured, errors)
+        _write_plot(args, poses, returns, results)
         out["plot"] = str(args.plot)
     if args.json:
         print(json.dumps(out))
@@ -274,10 +266,14 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_plot(args: argparse.Namespace, poses: list[Any], returns: list[Any], pairs: dict[str, Any],
-                errors: dict[str, list[Any]]) -> None:
+def _write_plot(args: argparse.Namespace, poses: list[Any], returns: list[Any], results: dict[str, Any]) -> None:
     """``--plot``: the consistency figure, written under a temporary name and renamed."""
+    import numpy as np
+
     from mcnkit.plots import consistency_figure
+
+    pairs = {kind: np.column_stack([res.relations.t1_ns, res.relations.t2_ns]) for kind, res in results.items()}
+    errors = {kind: [err.translation_m if err else np.zeros(0) for err in res.errors] for kind, res in results.items()}
 
     names = [path.name if len({p.name for p in args.trajectories}) == len(args.trajectories) else str(path)
              for path in args.trajectories]

@@ -46,18 +46,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mcnkit.geometry import compose, relative, wrap_angle
-from mcnkit.metrics import Relations
+from mcnkit.metrics import Relations, RelationsError, relations_error
 from mcnkit.slam.correlative import likelihood_grid, match_scan
 from mcnkit.slam.likelihood import refine_match
 from mcnkit.slam.proposal import match_information
-from mcnkit.types import Scan
+from mcnkit.types import Scan, Trajectory
 
-__all__ = ["revisit_pairs", "scan_relations", "scan_returns", "sequential_pairs"]
+__all__ = ["Consistency", "consistency", "revisit_pairs", "scan_relations", "scan_returns", "sequential_pairs"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -162,3 +163,36 @@ def scan_relations(returns_base: Sequence[F64], stamps_ns: I64, pairs: I64, cand
         t2.append(stamps_ns[j])
         deltas.append(best.pose)
     return Relations(np.asarray(t1, np.int64), np.asarray(t2, np.int64), np.asarray(deltas, np.float64).reshape(-1, 3))
+
+
+@dataclass(frozen=True)
+class Consistency:
+    """One kind of pairs (sequential or revisits): the relations the scans measured, and each trajectory's error."""
+
+    pairs: int
+    """Pairs tried."""
+    relations: Relations
+    """The relations measured (their stamps are scan indices)."""
+    errors: list[RelationsError | None]
+    """Per trajectory, its error on them (None when no relation was measured)."""
+
+
+def consistency(returns_base: Sequence[F64], trajectories: Sequence[F64], *, revisits_of: F64 | None = None,
+                progress: Callable[[Iterable[NDArray[np.int64]], str], Iterable[NDArray[np.int64]]] | None = None,
+                ) -> dict[str, Consistency]:
+    """How well trajectories (each (N, 3), one pose per scan) agree with their log's scans: the relations of
+    :func:`sequential_pairs` and of :func:`revisit_pairs` (of ``revisits_of``, default the first trajectory) measured
+    around all of them (:func:`scan_relations`), and each one's relations error on them.  ``progress(pairs, kind)``
+    wraps the iteration over each kind's pairs."""
+    n = len(returns_base)
+    index = np.arange(n, dtype=np.int64)  # stamped by scan number: logs with degenerate stamps are fine
+    kinds = {"sequential": sequential_pairs(n),
+             "revisits": revisit_pairs(trajectories[0] if revisits_of is None else revisits_of)}
+    out = {}
+    for kind, pairs in kinds.items():
+        wrap = None if progress is None else (lambda rows, kind=kind: progress(rows, kind))
+        rel = scan_relations(returns_base, index, pairs, trajectories, progress=wrap)
+        errors = [relations_error(Trajectory(index, np.asarray(p, np.float64)), rel, 0.0) if len(rel) else None
+                  for p in trajectories]
+        out[kind] = Consistency(len(pairs), rel, errors)
+    return out
