@@ -15,7 +15,7 @@ export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
 help:
 	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> MCN-SLAM -> recordings/demo/demo.rrd)"
 	@echo "make test   set up .venv and run ruff, mypy and pytest (all tests, slow ones included)"
-	@echo "make bench  run the benchmarks in benchmarks/ (figures printed and written as JSON)"
+	@echo "make bench  run every benchmark in benchmarks/ in full (figures printed and written as JSON)"
 	@echo "make notebooks       run every notebook in full mode (copies with outputs in notebooks/executed/)"
 	@echo "make browser-check   JupyterLab + headless Chromium: run notebook 03, save a screenshot"
 
@@ -49,13 +49,12 @@ pytest: $(STAMP)
 
 test: lint typecheck data pytest
 
+# every benchmark in benchmarks/, in full (each prints its figures and writes JSON to benchmarks/results/);
+# the one-off studies in benchmarks/studies/ are run by hand
+BENCHMARKS := bench_io bench_slam bench_sim_slam bench_completion bench_mcn bench_mcn_weighting bench_sampling \
+              bench_buildings bench_fuzz bench_interrupts
 bench: $(STAMP)
-	$(PY) benchmarks/bench_io.py
-	$(PY) benchmarks/bench_slam.py
-	$(PY) benchmarks/bench_sim_slam.py
-	$(PY) benchmarks/bench_completion.py
-	$(PY) benchmarks/bench_mcn.py
-	$(PY) benchmarks/bench_mcn_weighting.py
+	set -e; for b in $(BENCHMARKS); do echo "== benchmarks/$$b.py"; $(PY) -m benchmarks.$$b; done
 
 # every notebook top to bottom in full mode (make test runs them small, in CI mode)
 notebooks: $(STAMP)

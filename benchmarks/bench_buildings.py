@@ -1,4 +1,4 @@
-"""The building benchmark (issue 14): the default ``mcnkit slam`` on every real building, three seeds each.
+"""The building benchmark: the default ``mcnkit slam`` on every real building, three seeds each.
 
 For every log of ``../shared/data/reallab`` with a reference (the six Radish "corrected" logs, the Intel lab,
 MIT CSAIL) and every seed, runs the documented command in its own process::
@@ -16,9 +16,9 @@ agree better with the estimate than with the reference, itself the output of a S
 Writes ``benchmarks/results/buildings/buildings.json``, ``buildings.md``, one ``NAME.png`` per building (its
 seed-0 map with the estimate in green and the aligned reference in red) and ``contact_sheet.png``.
 
-    .venv/bin/python benchmarks/bench_buildings.py [--seeds 0 1 2] [--only aces fr079] [--jobs 2]
-    .venv/bin/python benchmarks/bench_buildings.py --extra /path/seattle-corrected.log.gz --out /tmp/b
-    .venv/bin/python benchmarks/bench_buildings.py --slam-option=--no-slam.motion-noise-from-log --out /tmp/c
+    .venv/bin/python -m benchmarks.bench_buildings [--seeds 0 1 2] [--only aces fr079] [--jobs 2]
+    .venv/bin/python -m benchmarks.bench_buildings --extra /path/seattle-corrected.log.gz --out /tmp/b
+    .venv/bin/python -m benchmarks.bench_buildings --slam-option=--no-slam.motion-noise-from-log --out /tmp/c
 """
 
 from __future__ import annotations
@@ -31,28 +31,17 @@ import sys
 import tempfile
 import time
 import warnings
-from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+from benchmarks.common import BUILDINGS, ROOT, SLAM_ENV, data_dir, slam_command
+
 OUT = ROOT / "benchmarks" / "results" / "buildings"
 
-# name -> (log relative to the data folder, relations file or None)
-BUILDINGS = {
-    "aces": ("reallab/radish/aces-corrected.log.gz", None),
-    "fr079": ("reallab/radish/freiburg-079-corrected.log.gz", None),
-    "fr101": ("reallab/radish/freiburg-101-corrected.log.gz", None),
-    "fhw": ("reallab/radish/fhw-corrected.log.gz", None),
-    "acapulco": ("reallab/radish/acapulco-corrected.log.gz", None),
-    "intel": ("reallab/intel/intel-corrected.log.gz", None),
-    "campus": ("reallab/radish/freiburg-campus-corrected.log.gz", None),
-    "mit-csail": ("reallab/mit-csail/mit-csail.clf", "reallab/mit-csail/mit-csail.relations"),
-}
-# the issue's bars: ATE RMSE (m) and CPU (s) per log; MIT: relations error and CPU; campus: ATE by order, CPU, RSS
+# the targets: ATE RMSE (m) and CPU (s) per log; MIT: relations error and CPU; campus: ATE by order, CPU, RSS
 TARGETS = {"ate_m": 0.15, "cpu_s": 90.0, "mit_relations_m": 0.045, "mit_cpu_s": 30.0,
            "campus_ate_m": 0.5, "campus_cpu_s": 120.0, "campus_rss_mb": 500.0}
 
@@ -76,24 +65,6 @@ class Run:
     relations_deg: float | None
     hit_cells: int | None  # cells hit by the scans placed on the estimate (see mcnkit.metrics.hit_cells)
     reference_hit_cells: int | None  # the same on the reference poses
-
-
-def _data_dir(arg: str | None) -> Path:
-    if arg:
-        return Path(arg)
-    env = os.environ.get("MCNKIT_SHARED_DATA")
-    return Path(env) if env else ROOT.parent / "shared" / "data"
-
-
-def slam_command(log: Path, seed: int, out: Path, options: Sequence[str] = ()) -> list[str]:
-    """The issue's documented command, ``mcnkit slam LOG --particles 30 --resolution 0.05 --out DIR``, as this
-    interpreter runs it (no progress bar; ``options`` appended)."""
-    return [sys.executable, "-m", "mcnkit.cli", "slam", str(log), "--particles", "30", "--resolution", "0.05",
-            "--seed", str(seed), "--out", str(out), "--no-progress", *options]
-
-
-SLAM_ENV = {**os.environ, "RERUN_ANALYTICS": "0"}
-"""The environment benchmarks run ``mcnkit slam`` in (Rerun analytics off)."""
 
 
 def _run(name: str, seed: int, data: Path, out: Path, options: list[str]) -> Run:
@@ -218,7 +189,7 @@ def main() -> int:
                              "(repeatable; e.g. --slam-option=--no-slam.motion-noise-from-log; use another --out)")
     args = parser.parse_args()
     options = [word for flag in args.slam_option for word in flag.split()]
-    data = _data_dir(args.data)
+    data = data_dir(args.data)
     names = list(args.only or ([] if args.extra else BUILDINGS))  # --extra alone: just those
     for log in args.extra:  # an absolute path: data / path is the path itself
         name = log.name.split(".")[0].removesuffix("-corrected")
@@ -271,7 +242,7 @@ def main() -> int:
         "*Hit cells estimate / reference*: cells hit by the scans' returns (up to 20 m) placed on the estimate, "
         "over the same on the reference poses (`mcnkit.metrics.hit_cells`). Under 1: the scans draw thinner walls "
         "on the estimate than on the reference. `trajectory.tum` is refined against the scans and the reference is not: "
-        "`benchmarks/reference_consistency.py` refines both alike for a fair comparison.\n"
+        "`benchmarks/studies/reference_consistency.py` refines both alike for a fair comparison.\n"
     )
     (args.out / "buildings.json").write_text(json.dumps(
         {"command": "mcnkit slam LOG --particles 30 --resolution 0.05 --seed S --out DIR --no-progress",

@@ -1,4 +1,4 @@
-"""Benchmark of the completion network (issue 5): latency of one 64×64 completion, and of 30 particles × 8 samples.
+"""Benchmark of the completion network: latency of one 64×64 completion, and of 30 particles × 8 samples.
 
 Measured on the default shipped U-net ``unet-houseexpo`` (Exp 1's (B), MCN-SLAM's default), through the public
 functions, i.e. the inference fast path (:func:`mcnkit.completion.sample.inference_net`: spectral norm evaluated
@@ -14,7 +14,7 @@ once, batch norm folded) and the conversion to ternary included:
 Uses ``--threads`` torch threads (default 2, this machine's cores).  Prints the figures and writes
 ``benchmarks/results/completion.json``.
 
-    .venv/bin/python benchmarks/bench_completion.py [--weights W [W ...]] [--threads 2]
+    .venv/bin/python -m benchmarks.bench_completion [--weights W [W ...]] [--threads 2]
 """
 
 from __future__ import annotations
@@ -29,12 +29,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from benchmarks.common import ROOT
 from mcnkit.completion.checkpoint import load_generator
 from mcnkit.completion.nets import UNet, UNetConfig
 from mcnkit.completion.sample import complete, sample_completions
 from mcnkit.datasets import procedural_pairs
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def _median_ms(fn: object, repeats: int) -> float:

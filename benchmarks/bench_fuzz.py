@@ -5,7 +5,7 @@ The source logs are the first ``--scans`` scans of the Intel lab log (CARMEN tex
 random non-zero byte; for the rosbag2 folder, in its ``.db3`` file) and runs, in a child process of its own
 (forked from a warm parent; killed after ``--timeout`` seconds; peak RSS from ``os.wait4``):
 
-1. ``mcnkit info --json`` (through :func:`mcnkit.cli.main`, output captured);
+1. ``mcnkit info --json`` (through :func:`mcnkit.app.main.main`, output captured);
 2. a full frame read (``open_log(...).frames()``), compared bit for bit with the clean log's frames;
 3. a short SLAM run: :class:`mcnkit.slam.FastSlam` over the first ``--slam-scans`` frames, then its map.
 
@@ -23,7 +23,7 @@ For the MCAP formats, every silently changed mutant is also checked with the ``m
 none of them may be one a CRC catches (a rosbag2 folder written by rosbags stores no CRCs; its silent changes, like
 sqlite3's, are plausible values no checksum covers).
 
-    .venv/bin/python benchmarks/bench_fuzz.py --seed 0 --mutants 200 --workers 2 --out benchmarks/results/fuzz.json
+    .venv/bin/python -m benchmarks.bench_fuzz --seed 0 --mutants 200 --workers 2 --out benchmarks/results/fuzz.json
 """
 
 from __future__ import annotations
@@ -51,16 +51,14 @@ from typing import Any
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from mcnkit.io import LogContent, LogError, open_log, write_log  # noqa: E402
-from mcnkit.types import Frame  # noqa: E402
+from benchmarks.common import ROOT
+from mcnkit.io import LogContent, LogError, open_log, write_log
+from mcnkit.types import Frame
 
 INTEL = ROOT.parent / "shared" / "data" / "reallab" / "intel" / "intel-corrected.log.gz"
 FORMATS = {"ros1": "log.bag", "mcap": "log.mcap", "ros2-sqlite3": "log_sqlite3", "carmen": "log.log",
            "ros2-mcap": "log_mcap", "mcap-ros1": "log_ros1.mcap"}
-"""Every format the readers take; the issue's four come first (``--formats`` picks)."""
+"""Every format the readers take; the four the readers were built for come first (``--formats`` picks)."""
 MCAP_FORMATS = ("mcap", "ros2-mcap", "mcap-ros1")
 """Formats whose data file is an MCAP: every silently changed mutant of these is checked against the CRCs."""
 CLASSES = ["clean error", "warned", "unchanged", "changed silently", "impossible", "traceback", "hang", "memory"]
@@ -128,7 +126,7 @@ def frame_key(frames: list[Frame]) -> list[tuple[int, bytes, tuple[float, float,
 
 def run_info(path: Path) -> tuple[int, dict[str, Any] | None, str]:
     """``mcnkit info --json PATH`` in this process: exit code, parsed output, stderr."""
-    from mcnkit.cli import main
+    from mcnkit.app.main import main
 
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
@@ -157,7 +155,7 @@ def read_frames(path: Path) -> tuple[list[Frame] | None, list[str], str | None]:
 
 
 def short_slam(frames: list[Frame], n: int) -> None:
-    from mcnkit.drive import drive
+    from mcnkit.app.drive import drive
     from mcnkit.slam import FastSlam, SlamConfig
 
     slam = FastSlam(SlamConfig(n_particles=5), np.random.default_rng(0))

@@ -1,6 +1,6 @@
 """SIGINT and SIGTERM at ten seeded random moments each of ``mcnkit slam`` and ``mcnkit run`` on the MIT CSAIL log.
 
-    python benchmarks/bench_interrupts.py [--tries 10] [--seed 0] [--data ../shared/data]
+    python -m benchmarks.bench_interrupts [--tries 10] [--seed 0] [--data ../shared/data]
 
 Each try starts the command as a subprocess with ``--rrd`` and ``--out``, waits for the recording to be opened
 (its ``.partial`` file appears), sleeps a random 0–4 s and sends the signal.  Counted per command and signal: exit
@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+from benchmarks.common import ROOT
+
 RERUN = Path(sys.executable).parent / "rerun"
 ENV = {**os.environ, "RERUN_ANALYTICS": "0"}
 COMMANDS = {
@@ -33,7 +34,7 @@ COMMANDS = {
 
 def _try(argv: list[str], signum: int, delay_s: float, folder: Path) -> dict[str, object]:
     rrd, out = folder / "run.rrd", folder / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "mcnkit.cli", *argv, "--rrd", str(rrd), "--out", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "mcnkit.app.main", *argv, "--rrd", str(rrd), "--out", str(out),
                              "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=ENV)
     partial = rrd.with_name(rrd.name + ".partial")
     while not partial.exists() and proc.poll() is None:

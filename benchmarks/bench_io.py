@@ -2,9 +2,9 @@
 
 Each log holds /scan, /odom, /tf and /tf_static (what ``mcnkit convert`` writes); a frame is a decoded
 LaserScan with its odometry interpolated at the scan stamp, i.e. the full work SLAM needs per scan.
-Target (issue 2): ≥ 40,000 scans/s for ROS1 .bag and ROS2 mcap.
+Target: ≥ 40,000 scans/s for ROS1 .bag and ROS2 mcap.
 
-    .venv/bin/python benchmarks/bench_io.py [--scans 20000] [--repeats 3] [--json benchmarks/results/io.json]
+    .venv/bin/python -m benchmarks.bench_io [--scans 20000] [--repeats 3] [--json benchmarks/results/io.json]
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Benchmark of MCN-SLAM (issue 6): its CPU cost against SLAM alone, and the cost of recording it to Rerun.
+"""Benchmark of MCN-SLAM: its CPU cost against SLAM alone, and the cost of recording it to Rerun.
 
 Each configuration runs in a subprocess of its own (``--child``), timed by its CPU clock around the filter loop (the log is
 read into memory and the network loaded first):
@@ -19,7 +19,7 @@ read into memory and the network loaded first):
 
 Writes ``benchmarks/results/mcn.json``.
 
-    .venv/bin/python benchmarks/bench_mcn.py [--ranks 1 3] [--repeats 2] [--data ../shared/data]
+    .venv/bin/python -m benchmarks.bench_mcn [--ranks 1 3] [--repeats 2] [--data ../shared/data]
 """
 
 from __future__ import annotations
@@ -33,7 +33,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from benchmarks.common import ROOT
+
 DATA = ROOT.parent / "shared" / "data"
 
 
@@ -47,7 +48,7 @@ def _child(mode: str, log: str, ranks: int, rrd: str, repeats: int = 2) -> None:
     torch.set_num_threads(1)
     with open_log(log) as reader:
         frames = list(reader.frames())
-    from mcnkit.drive import drive
+    from mcnkit.app.drive import drive
     from mcnkit.slam import FastSlam, SlamConfig
 
     config = SlamConfig(n_particles=30)
@@ -58,7 +59,7 @@ def _child(mode: str, log: str, ranks: int, rrd: str, repeats: int = 2) -> None:
         print(json.dumps({"cpu_s": time.process_time() - cpu0, "scans": len(frames), "updates": slam.n_updates}))
         return
     from mcnkit.mcn import McnConfig, McnSlam, load_model
-    from mcnkit.run import run_mcn
+    from mcnkit.viz import run_mcn
 
     net = load_model("unet-explore")  # mcnkit run's default (same architecture and cost as "unet")
 
@@ -105,8 +106,8 @@ def _seconds(runs: list[dict]) -> str:
 
 
 def _run(mode: str, log: Path, ranks: int, rrd: Path, repeats: int = 2) -> dict:
-    out = subprocess.run([sys.executable, __file__, "--child", mode, str(log), str(ranks), str(rrd), str(repeats)],
-                         check=True, capture_output=True, text=True).stdout
+    out = subprocess.run([sys.executable, "-m", "benchmarks.bench_mcn", "--child", mode, str(log), str(ranks), str(rrd), str(repeats)],
+                         check=True, capture_output=True, text=True, cwd=ROOT).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 

@@ -1,4 +1,4 @@
-"""Does weighting particles by the *completed* map help localization?  (issue 6, beyond the paper)
+"""Does weighting particles by the *completed* map help localization?  (beyond the paper)
 
 ``McnConfig.completion_weight = λ > 0`` adds, at every filter update, ``λ · Σ log(ε + (1 − 2ε) p_occ)`` to each
 particle's log-weight, over the scan's end points that fall in cells unknown in that particle's map, with
@@ -11,7 +11,7 @@ the same with the odometry noise multiplied by ``--noise-scale`` (a harder case 
 
 Writes ``benchmarks/results/mcn_weighting.json``.
 
-    .venv/bin/python benchmarks/bench_mcn_weighting.py [--houseexpo 3] [--procedural 2] [--seeds 0 1 2] [--weights 0 1]
+    .venv/bin/python -m benchmarks.bench_mcn_weighting [--houseexpo 3] [--procedural 2] [--seeds 0 1 2] [--weights 0 1]
 """
 
 from __future__ import annotations
@@ -25,14 +25,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from benchmarks.common import ROOT
+from mcnkit.app.drive import drive
 from mcnkit.datasets import read_split
-from mcnkit.drive import drive
 from mcnkit.mcn import McnConfig, McnSlam, load_model
 from mcnkit.metrics import absolute_trajectory_error
 from mcnkit.sim import SimConfig, plan_raster, simulate
 from mcnkit.slam import SlamConfig
 
-ROOT = Path(__file__).resolve().parents[1]
 HOUSEEXPO = ROOT.parent / "shared" / "data" / "houseexpo"
 
 

@@ -9,9 +9,9 @@ Per class c ∈ {free, occupied}, on K: IoU_c = |S_c ∩ G_c| / |S_c ∪ G_c|.  
 unfair (a beam ending on a wall surface that lies on a cell boundary marks either neighbour), so the occupied
 class is also scored with a one-cell tolerance: an occupied SLAM cell counts as right when the ground truth is
 occupied within one cell, and a ground-truth wall cell in K counts as found when SLAM has an occupied cell
-within one cell.  The issue's target is IoU ≥ 0.9 on the known cells.
+within one cell.  The target is IoU ≥ 0.9 on the known cells.
 
-    .venv/bin/python benchmarks/bench_sim_slam.py [--houseexpo 5] [--procedural 3] [--json benchmarks/results/sim_slam.json]
+    .venv/bin/python -m benchmarks.bench_sim_slam [--houseexpo 5] [--procedural 3] [--json benchmarks/results/sim_slam.json]
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from mcnkit.app.drive import drive
 from mcnkit.datasets import read_split
-from mcnkit.drive import drive
 from mcnkit.io import open_log
 from mcnkit.metrics import absolute_trajectory_error
 from mcnkit.sim import SimConfig, plan_raster, simulate, write_sim_log

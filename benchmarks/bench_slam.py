@@ -1,4 +1,4 @@
-"""Benchmark of the grid FastSLAM (issue 3) on the real logs, against the gmapping anchors.
+"""Benchmark of the grid FastSLAM on the real logs, against the gmapping anchors.
 
 Runs, each in its own subprocess (so CPU time and peak RSS are the SLAM run's own):
 
@@ -11,7 +11,7 @@ Runs, each in its own subprocess (so CPU time and peak RSS are the SLAM run's ow
 
 Writes ``benchmarks/results/slam.json`` and the maps ``benchmarks/results/slam_*.png``.
 
-    .venv/bin/python benchmarks/bench_slam.py [--seeds 0 1 2] [--data ../shared/data]
+    .venv/bin/python -m benchmarks.bench_slam [--seeds 0 1 2] [--data ../shared/data]
 """
 
 from __future__ import annotations
@@ -28,14 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+from benchmarks.common import ROOT
+
 DATA = ROOT.parent / "shared" / "data"
 GMAPPING = {"translation_m": "0.047-0.049", "rotation_deg": "2.9-3.0", "cpu_s": "39.7-41.1", "rss_mb": "85-99"}
 
 
 def _child(log: str, seed: int, out: str) -> int:
     """Runs ``mcnkit slam`` in this process (the subprocess side)."""
-    from mcnkit.slam.cli import add_slam_parser
+    from mcnkit.app.commands.slam import add_slam_parser
 
     parser = argparse.ArgumentParser()
     add_slam_parser(parser.add_subparsers())
@@ -48,9 +49,8 @@ def _child(log: str, seed: int, out: str) -> int:
 def _run(log: Path, seed: int, out: Path) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run(
-        [sys.executable, __file__, "--child", str(log), str(seed), str(out)], check=True, stdout=subprocess.DEVNULL
-    )
+    subprocess.run([sys.executable, "-m", "benchmarks.bench_slam", "--child", str(log), str(seed), str(out)],
+                   check=True, stdout=subprocess.DEVNULL, cwd=ROOT)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     summary = json.loads((out / "summary.json").read_text())
     summary["process_cpu_s"] = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)

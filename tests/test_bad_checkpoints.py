@@ -9,7 +9,7 @@ import pytest
 import torch
 from safetensors.torch import load_file, save_file
 
-from mcnkit.cli import main
+from mcnkit.app.main import main
 from mcnkit.completion.checkpoint import CheckpointError, load_checkpoint
 from mcnkit.completion.registry import MODELS, default_weights_dir
 from mcnkit.io import LogContent, write_log

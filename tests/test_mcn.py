@@ -14,17 +14,17 @@ import pytest
 import torch
 from rerun.chunk import RrdReader
 
-from mcnkit.cli import main
+from mcnkit.app.main import main
 from mcnkit.completion.nets import UNet, UNetConfig
 from mcnkit.completion.sample import inference_net
 from mcnkit.geometry import compose
 from mcnkit.grid import pool_to_window
 from mcnkit.mcn import McnConfig, McnSlam, load_model, map_window, robot_window
-from mcnkit.run import run_mcn
 from mcnkit.sim import SimConfig, SimResult, plan_raster, simulate, write_sim_log
 from mcnkit.slam import SlamConfig, ray_cast_counts
 from mcnkit.slam.lineage import LineageMap
 from mcnkit.types import OCCUPIED, UNKNOWN, GridSpec, TernaryMap
+from mcnkit.viz import run_mcn
 
 N_PARTICLES = 8
 
@@ -248,8 +248,8 @@ def test_mcnkit_run_takes_slam_and_mcn_flags_and_reruns_from_its_summary(tmp_pat
 
 def test_every_mcn_and_recording_field_has_a_flag_and_bad_values_are_one_line(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from mcnkit.cli import build_parser
-    from mcnkit.recording import RecordingConfig
+    from mcnkit.app.main import build_parser
+    from mcnkit.app.recording import RecordingConfig
 
     parser = build_parser("run")
     run = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["run"]

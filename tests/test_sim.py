@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from mcnkit.datasets.cli import add_simulate_parser
+from mcnkit.app.commands.simulate import add_simulate_parser
 from mcnkit.geometry import compose
 from mcnkit.io import open_log
 from mcnkit.sim import (

@@ -20,10 +20,10 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
+from mcnkit.app.drive import DriveStep, Outcome, drive
 from mcnkit.completion.nets import UNet
 from mcnkit.completion.sample import complete, label_entropy, sample_completions
 from mcnkit.completion.scores import PositiveClass, Scores, mean_ci95, score_maps
-from mcnkit.drive import DriveStep, Outcome, drive
 from mcnkit.slam import FastSlam, SlamConfig
 from mcnkit.slam.lineage import LineageMap
 from mcnkit.types import FREE, UNKNOWN, Frame, TernaryMap
@@ -73,7 +73,7 @@ class SlamRun:
 
 
 class _BestAncestry:
-    """The :func:`mcnkit.drive.drive` sink of :func:`run_slam`: at every filter update, the ancestry poses of the
+    """The :func:`mcnkit.app.drive.drive` sink of :func:`run_slam`: at every filter update, the ancestry poses of the
     particle best at that update."""
 
     def __init__(self, run: SlamRun) -> None:
@@ -89,7 +89,7 @@ class _BestAncestry:
 
 
 def run_slam(frames: Iterable[Frame], config: SlamConfig, rng: np.random.Generator) -> SlamRun:
-    """Runs FastSLAM over ``frames`` (through :func:`mcnkit.drive.drive`), remembering the best particle's
+    """Runs FastSLAM over ``frames`` (through :func:`mcnkit.app.drive.drive`), remembering the best particle's
     ancestry at every filter update."""
     run = SlamRun(FastSlam(config, rng))
     drive(frames, run.slam, [_BestAncestry(run)])

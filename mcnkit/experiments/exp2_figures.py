@@ -26,7 +26,7 @@ def example_figure(path: Path, houses: list[HouseRun], late_updates: list[int],
     network label, the completions of every house."""
     from matplotlib.figure import Figure
 
-    from mcnkit.plots import image_row
+    from mcnkit.viz.plots import image_row
 
     n = min(n, len(houses))
     labels = list(comps[ITERATIONS[0]])

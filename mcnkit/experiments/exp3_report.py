@@ -41,7 +41,7 @@ def windows_figure(path: Path, name: str, pts: list[PointWindows], comps: dict[s
     """One row per point: m_t, a U-net's two samples, mean and uncertainty, the other networks' means, m_T."""
     from matplotlib.figure import Figure
 
-    from mcnkit.plots import image_row
+    from mcnkit.viz.plots import image_row
 
     labels = list(comps)
     unet = next((lab for lab in labels if "U-net" in lab), labels[0] if labels else None)

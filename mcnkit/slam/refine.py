@@ -11,7 +11,7 @@ eigen-directions of its match information, each scaled by its share of the stron
 slid along the axis by a flat field's noise).  All blocks of a round see the same poses, so the result
 does not depend on the order of the blocks.
 
-Measured with ``benchmarks/reference_consistency.py`` and ``benchmarks/bench_buildings.py`` (see the README):
+Measured with ``benchmarks/studies/reference_consistency.py`` and ``benchmarks/bench_buildings.py`` (see the README):
 it lowers the ATE on every Radish building and the MIT CSAIL relations error, and it makes the scans draw thinner
 walls; it is not a loop closer (a scan is moved by at most ``max_shift_m`` per round).
 

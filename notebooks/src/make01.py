@@ -26,7 +26,7 @@ OUT = Path("out") / "01"             # this notebook's outputs (git-ignored); `m
 code("""import matplotlib.pyplot as plt
 from IPython.display import display
 
-from mcnkit.demo import run_demo
+from mcnkit.app.commands.demo import run_demo
 
 result = run_demo(OUT / "demo", OUT / "demo.rrd", apartment=APARTMENT,
                   particles=PARTICLES, duration_s=DURATION_S, progress=False)"""),
@@ -37,7 +37,7 @@ scores against the ground truth (free-space F of the SLAM map and of the complet
 unknown cells, sample diversity) and N_eff. On the right, one row per particle rank: its map m_t as the network
 sees it (64 × 64), the sampled completions and their uncertainty; the ground truth and the event log are in tabs."""),
 code("""if VIEWER:
-    from mcnkit.widgets import recording_player
+    from mcnkit.viz.widgets import recording_player
 
     display(recording_player(result.rrd_path, result.scans))
 else:

@@ -33,7 +33,7 @@ from IPython.display import display
 
 from mcnkit.sim import SimConfig, plan_raster, simulate
 from mcnkit.types import TernaryMap
-from mcnkit.widgets import SlamStepper
+from mcnkit.viz.widgets import SlamStepper
 
 raster = plan_raster(f"procedural:{APARTMENT}", 0.05, None)
 run = simulate(raster, SimConfig(max_duration_s=SIM_SECONDS), seed=0)

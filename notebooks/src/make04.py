@@ -56,7 +56,7 @@ from mcnkit.completion.registry import default_weights_dir
 from mcnkit.completion.train import TrainConfig, train
 from mcnkit.datasets import PairSet, PairSplits, find_houseexpo, pair_stats
 from mcnkit.grid import network_to_ternary, ternary_to_network
-from mcnkit.plots import TERNARY_CMAP
+from mcnkit.viz.plots import TERNARY_CMAP
 from mcnkit.types import FREE, UNKNOWN
 
 torch.set_num_threads(THREADS)

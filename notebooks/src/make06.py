@@ -167,12 +167,12 @@ md("""How to read it:
 (at the end $m_t = m_T$); the completions help early and fall behind once most of the house is seen."""),
 code("""display(Image(filename=str(out / "exp2_curve.png")))"""),
 md("""## One MCN-SLAM run, recorded
-`mcnkit.run.run_mcn` runs MCN-SLAM (`McnSlam`: FastSLAM + completion of the R best particles' maps, K samples
+`mcnkit.viz.run_mcn` runs MCN-SLAM (`McnSlam`: FastSLAM + completion of the R best particles' maps, K samples
 each, at every filter update, on the window of the map seen so far) on the first house and records every step to
 a Rerun file. With a ground truth it also scores each completion; the plot shows F of $m_t$ and of the completed
 map along the run (here on McnSlam's own growing window, not on the experiment's whole-house window)."""),
 code("""from mcnkit.mcn import McnConfig, McnSlam, load_model
-from mcnkit.run import run_mcn
+from mcnkit.viz import run_mcn
 from mcnkit.sim import SimConfig, plan_raster, simulate
 from mcnkit.slam import SlamConfig
 from mcnkit.types import FREE, OCCUPIED, TernaryMap

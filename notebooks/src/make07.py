@@ -134,7 +134,7 @@ mcnkit experiment exp3 --out results/exp3
 ```"""),
 md("""## Watch MCN-SLAM on the Intel lab
 The experiment above completes windows offline at five points. Here the same network runs *inside* the filter on
-the Intel log (`mcnkit.run.run_mcn`): at every 4th filter update the two best particles' maps are completed four
+the Intel log (`mcnkit.viz.run_mcn`): at every 4th filter update the two best particles' maps are completed four
 times each (the whole map shrunk to 64 × 64, as in the paper), and every step is recorded to a Rerun file —
 the same recording `recordings/intel_lab.rrd` holds for the whole log. Without a front end (CI) no viewer is
 created: the static figure below shows the last completions, and the `.rrd` is written all the same."""),
@@ -144,8 +144,8 @@ import torch
 
 from mcnkit.io import open_log
 from mcnkit.mcn import McnConfig, McnSlam, load_model
-from mcnkit.plots import completion_figure
-from mcnkit.run import run_mcn
+from mcnkit.viz.plots import completion_figure
+from mcnkit.viz import run_mcn
 from mcnkit.slam import SlamConfig
 
 rrd = OUT / "07" / "intel_mcn.rrd"
@@ -158,7 +158,7 @@ print(f"{summary.scans} scans, {summary.filter_updates} filter updates, {summary
       f"mean sample diversity {summary.mean_diversity:.3f}; {rrd} ({summary.rrd_bytes / 1e6:.1f} MB)")
 completion_figure(summary.last_completion)"""),
 code("""if VIEWER:
-    from mcnkit.widgets import recording_player
+    from mcnkit.viz.widgets import recording_player
 
     display(recording_player(rrd, summary.scans))
 else:

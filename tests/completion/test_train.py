@@ -60,7 +60,7 @@ def test_train_checkpoints_and_resume(tmp_path: Path, tiny_splits: PairSplits) -
 def test_ddp_two_gloo_processes_two_steps(tmp_path: Path) -> None:
     cmd = [
         sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2",
-        "-m", "mcnkit.completion.cli", "train", "--model", "unet", "--domain", "procedural", "--out", str(tmp_path),
+        "-m", "mcnkit.app.commands.train", "train", "--model", "unet", "--domain", "procedural", "--out", str(tmp_path),
         "--n-train", "16", "--n-val", "4", "--n-test", "2", "--batch-size", "4", "--max-steps", "2", "--epochs", "1",
         "--base-channels", "4", "--max-channels", "8", "--depth", "3", "--threads", "1", "--no-progress",
     ]  # fmt: skip

@@ -71,7 +71,7 @@ def test_a_stale_a_foreign_and_a_damaged_cache_are_refused(tmp_path: Path) -> No
 
 
 def test_run_house_reuses_its_cache_and_refuses_a_bad_one(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from mcnkit.cli import main
+    from mcnkit.app.main import main
 
     cfg = Exp2Config(out_dir=str(tmp_path), maps=("procedural:1",))
     h = replace(_house(), name="procedural:1")

@@ -171,7 +171,7 @@ def test_byte_flip_mutants_are_refused_warned_or_plausible(
     """20 seeded mutants per format (1-16 flipped bytes): `mcnkit info` exits 0 or 2 without a traceback; the frame
     read either refuses the log with one line or passes on only physically possible frames; an MCAP mutant that
     reads without a warning reads exactly the clean frames (its CRCs catch the rest); SLAM runs on what is read."""
-    from mcnkit.cli import main
+    from mcnkit.app.main import main
     from mcnkit.slam import FastSlam, SlamConfig
 
     clean, clean_frames = mutant_sources[fmt]

@@ -1,0 +1,43 @@
+"""``mcnkit info``: look inside a robot log."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from mcnkit.io.info import describe, print_info
+
+__all__ = ["add_info_parser", "add_source_options"]
+
+
+def add_source_options(p: argparse.ArgumentParser) -> None:
+    """Adds ``--scan-topic`` and ``--odom`` (which streams of a log to read)."""
+    p.add_argument("--scan-topic", help="LaserScan topic to use (default: /scan, else the busiest LaserScan topic)")
+    p.add_argument("--odom", help="Odometry topic, or tf:ODOM_FRAME->BASE_FRAME (default: detected)")
+
+
+def _info(args: argparse.Namespace) -> int:
+    from mcnkit.io.open import open_log
+
+    with open_log(args.log, scan_topic=args.scan_topic, odom=args.odom) as log:
+        info = describe(log)
+    if args.json:
+        print(json.dumps(info, indent=2))
+    else:
+        print_info(info)
+    return 0
+
+
+def add_info_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Registers ``mcnkit info``."""
+    p = sub.add_parser(
+        "info", help="show what a robot log holds",
+        description="Show a log's format, time span, topics (type and count), the detected scan and odometry "
+        "sources, and the scanner (beams, field of view, range). Reads ROS1 .bag, ROS2 bag folders "
+        "(sqlite3/mcap), .mcap (ROS1 or ROS2 profile) and CARMEN/DP-SLAM logs.",
+    )
+    p.add_argument("log", type=Path, help="a log file or a ROS2 bag folder")
+    add_source_options(p)
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.set_defaults(func=_info)

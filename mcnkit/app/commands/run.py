@@ -1,0 +1,172 @@
+"""``mcnkit run``: MCN-SLAM on a robot log, every step recorded to Rerun.
+
+    mcnkit run LOG --rrd run.rrd [--model unet|pix2pix|PATH] [--samples K] [--ranks R] [--particles N]
+
+At every filter update the R best particles' maps are completed K times by the network (one forward pass),
+and the recording gets the particles, the best map and its unknown mask, each rank's m_t, its K samples and
+their uncertainty (see :mod:`mcnkit.viz`).  With ``--out DIR`` it also writes ``trajectory.tum``, the map
+(``map.pgm/.yaml/.png``), the last completion (``completion.png``) and ``summary.json`` (timings included).
+An interrupted run (Ctrl-C, SIGTERM, a damaged log) still closes the recording (``rerun rrd verify`` passes) and
+writes ``--out`` with the results so far (``"interrupted": true`` in ``summary.json``); exit code 130 / 143 for a
+signal.  Outputs never replace an input, and replace an existing file only with ``--overwrite``.
+
+``--connect [URL]`` streams the recording live to a running viewer and ``--serve`` from a gRPC server of its own on
+127.0.0.1 (see :mod:`mcnkit.app.recording`), also beside ``--rrd``.  Settings: ``--slam.FIELD``, ``--mcn.FIELD`` and
+``--recording.FIELD`` for every field of SlamConfig, McnConfig and RecordingConfig, or ``--config`` (TOML tables,
+or a run's ``summary.json``, which holds them all; so does the recording, at ``/config``).
+
+:func:`mcnkit.viz.run_mcn` is the same loop for scripts and notebooks (frames in, a summary out).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+from mcnkit.app.recording import add_recording_flags
+from mcnkit.app.runconfig import add_dataclass_flags
+from mcnkit.completion.registry import MODELS
+from mcnkit.mcn_config import McnConfig
+from mcnkit.slam.config import SlamConfig
+
+__all__ = ["add_run_parser", "cmd_run"]
+
+
+_RUN_MAP_EVERY = 5
+"""``mcnkit run``'s default McnConfig.full_map_every (the library's is 1): the best full map every 5 completions."""
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """``mcnkit run``: see the module docstring."""
+    import numpy as np
+    import torch
+
+    from mcnkit.app.drive import SIGNALS, drive
+    from mcnkit.app.exits import fail
+    from mcnkit.app.outputs import Output, check_outputs
+    from mcnkit.app.recording import RecordingConfig, ViewerError, live_viewer
+    from mcnkit.app.runconfig import ConfigError, config_file, resolve_section, resolve_slam_config
+    from mcnkit.app.sinks import McnOutputs
+    from mcnkit.completion.checkpoint import CheckpointError
+    from mcnkit.io import open_log
+    from mcnkit.mcn import McnSlam, load_model
+    from mcnkit.viz.plots import completion_figure
+    from mcnkit.viz.record import announce_live, mcn_sinks, recording_logger, serve_on
+
+    try:
+        file = config_file(args)
+        slam_config, seed = resolve_slam_config(args, file)
+        short = {"samples": args.samples, "ranks": args.ranks, "window": args.window, "window_m": args.window_m,
+                 "every": args.every, "full_map_every": args.map_every}
+        config = resolve_section(McnConfig, args, "mcn", file, short, defaults={"full_map_every": _RUN_MAP_EVERY})
+        recording = resolve_section(RecordingConfig, args, "recording", file)
+        model_name = args.model if args.model is not None else file.get("model", "unet-explore")
+        if not isinstance(model_name, str):
+            raise ConfigError(f"{args.config}: model: expected a name or a path, got {model_name!r}")
+        live = live_viewer(args, recording)
+    except (ConfigError, ViewerError) as err:
+        return fail("run", err)
+    model_path = [] if model_name in MODELS else [Path(model_name)]
+    outputs = [Output(p, folder=p == args.out) for p in (args.rrd, args.out) if p is not None]
+    check_outputs([args.log, *model_path], outputs, overwrite=args.overwrite)
+    torch.set_num_threads(max(1, args.threads))
+    try:
+        model = load_model(model_name)
+    except (CheckpointError, FileNotFoundError) as err:
+        return fail("run", err)
+    info = {"command": "run", "log": str(args.log), "model": model_name, "samples": config.samples,
+            "ranks": config.ranks, "particles": slam_config.n_particles, "seed": seed, "window": config.window,
+            "threads": args.threads, "config": dataclasses.asdict(slam_config), "mcn": dataclasses.asdict(config),
+            "recording": dataclasses.asdict(recording)}
+    recorded = args.rrd is not None or live is not None
+    # the full map feeds only the recording (it changes no particle): not computed without one
+    stepped = config if recorded else dataclasses.replace(config, full_map_every=0)
+    mcn = McnSlam(slam_config, model, stepped, np.random.default_rng(seed),
+                  generator=torch.Generator().manual_seed(seed))
+    logger = None
+    with SIGNALS.deferred(), open_log(args.log) as log:
+        count = next((t.count for t in getattr(log, "topics", []) if t.name == getattr(log, "scan_topic", None)),
+                     None)
+        rec_id = f"mcn-{Path(args.log).stem}-{model_name if model_name in MODELS else 'custom'}-{seed}"
+        summary, sinks = mcn_sinks(mcn, rrd=args.rrd, recording_id=rec_id, progress=not args.no_progress,
+                                   total=count, live=live, config=info, flush_updates=recording.flush_updates,
+                                   keep_serving=True)
+        logger = recording_logger(sinks)
+        if logger is not None:
+            announce_live(logger)
+        if args.out is not None:
+            sinks.append(McnOutputs(args.out, mcn, summary, info, draw=completion_figure))
+        outcome = drive(log.frames(), mcn, sinks, stop=SIGNALS.requested)
+    try:
+        if summary.scans == 0:
+            return 0 if outcome.interrupted else fail("run", f"{args.log}: no scans")
+        share = summary.cpu_s_recording / max(summary.cpu_s, 1e-9)
+        stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
+        print(f"{summary.scans} scans{stopped}, {summary.filter_updates} filter updates, {summary.completions} "
+              f"completions (R={config.ranks} × K={config.samples}), mean sample diversity "
+              f"{summary.mean_diversity:.3f}; CPU {summary.cpu_s:.1f} s ({100 * share:.1f} % recording), wall "
+              f"{summary.wall_s:.1f} s", flush=True)
+        if args.rrd is not None:
+            print(f"recording: {args.rrd} ({summary.rrd_bytes / 1e6:.1f} MB; {summary.rrd_bytes_written / 1e6:.1f} "
+                  f"MB before compaction)    watch it: rerun {args.rrd}", flush=True)
+        return 0
+    finally:
+        if logger is not None:  # --serve: on after a finished run (until Ctrl-C by default)
+            serve_on(logger, recording.linger_s if summary.scans else 0, SIGNALS)
+
+
+def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Registers ``mcnkit run``."""
+    p = sub.add_parser("run", help="MCN-SLAM on a robot log: SLAM + sampled map completions, recorded to Rerun",
+                       usage="mcnkit run LOG [--rrd FILE] [--out DIR] [--model NAME|PATH] [--config FILE] "
+                             "[--slam.FIELD|--mcn.FIELD|--recording.FIELD VALUE ...] [options]",
+                       description="MCN-SLAM on a robot log.  At every filter update the R best particles' maps are "
+                       "completed K times by the network (one forward pass); with --rrd the recording gets the "
+                       "particles, the best map and its unknown mask, each rank's map, its K samples and their "
+                       "uncertainty.  With --out it also writes trajectory.tum, the map (map.pgm/.yaml/.png), the "
+                       "last completion (completion.png) and summary.json.  An interrupted run (Ctrl-C, SIGTERM, a "
+                       "damaged log) still closes the recording (rerun rrd verify passes) and writes --out with the "
+                       "results so far (\"interrupted\": true in summary.json); exit code 130 / 143 for a signal.  "
+                       "Outputs never replace an input, and replace existing files only with --overwrite.  "
+                       "--connect streams every step live to a running Rerun viewer, --serve from a gRPC server of "
+                       "its own on 127.0.0.1 (both also beside --rrd).  Every SlamConfig, McnConfig and "
+                       "RecordingConfig field is a flag (--slam.FIELD, --mcn.FIELD, --recording.FIELD); summary.json "
+                       "and the recording (/config) hold the whole configuration, and --config OUT/summary.json "
+                       "re-runs it.")
+    p.add_argument("log", type=Path, help="a log open_log reads (CARMEN, .bag, rosbag2 folder, .mcap)")
+    p.add_argument("--rrd", type=Path, default=None, help="record every step to this Rerun file")
+    p.add_argument("--out", type=Path, default=None,
+                   help="also write trajectory.tum, map.pgm/.yaml/.png, completion.png, summary.json here")
+    p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--rrd, --out files)")
+    p.add_argument("--model", default=None,
+                   help=f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path "
+                        "(default: the config file's, else unet-explore: the U-net trained on maps part-way through "
+                        "an exploration, which leaves the outside of a building occupied; unet is the paper's, "
+                        "trained on one-scan maps)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="settings file: TOML ([slam], [mcn] and [recording] tables, seed = N, model = NAME) or a "
+                        "run's summary.json (re-runs it); flags given here override it")
+    p.add_argument("--samples", type=int, default=None, help="K completions per particle (default 4; = --mcn.samples)")
+    p.add_argument("--ranks", type=int, default=None, help="R best particles completed (default 3; = --mcn.ranks)")
+    p.add_argument("--particles", type=int, default=None, help="SLAM particles (default 30; = --slam.n-particles)")
+    p.add_argument("--resolution", type=float, default=None,
+                   help="map cell size in metres (default 0.05; = --slam.resolution-m)")
+    p.add_argument("--window", choices=["map", "robot"], default=None,
+                   help="network input: the whole map shrunk to 64x64 (paper; the default) or a robot-centred square "
+                        "(= --mcn.window)")
+    p.add_argument("--window-m", type=float, default=None,
+                   help="side of the robot-centred window (default 12.8 m; = --mcn.window-m)")
+    p.add_argument("--every", type=int, default=None,
+                   help="complete at every N-th filter update (default 1: each; = --mcn.every)")
+    p.add_argument("--map-every", type=int, default=None,
+                   help=f"record the best full-resolution map every N completions (default {_RUN_MAP_EVERY}; "
+                        "= --mcn.full-map-every; not computed without a recording)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="seed of the filter and of the samples (default 0, or the config file's)")
+    p.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_recording_flags(p)
+    add_dataclass_flags(p, SlamConfig, "slam")
+    add_dataclass_flags(p, McnConfig, "mcn")
+    p.set_defaults(func=cmd_run)
