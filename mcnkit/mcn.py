@@ -38,7 +38,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from mcnkit.completion.nets import UNet
+from mcnkit.completion.nets import CompletionNet
 from mcnkit.completion.registry import MODELS, CheckpointError, default_weights_dir
 from mcnkit.completion.sample import inference_net, label_entropy, sample_completions
 from mcnkit.completion.scores import miou_unknown, score_maps
@@ -57,7 +57,7 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
 
-def load_model(name_or_path: str | Path, device: str | torch.device = "cpu") -> UNet:
+def load_model(name_or_path: str | Path, device: str | torch.device = "cpu") -> CompletionNet:
     """A completion generator in eval mode: a short name of :data:`MODELS` or a checkpoint path."""
     from mcnkit.completion.checkpoint import checkpoint_paths, load_generator
 
@@ -146,7 +146,7 @@ def _copy_observed(output_ternary: F32, partial: F32) -> F32:
 class McnSlam:
     """Grid FastSLAM + map completion network, one frame at a time (see the module docstring)."""
 
-    def __init__(self, slam_config: SlamConfig, model: UNet, config: McnConfig | None = None,
+    def __init__(self, slam_config: SlamConfig, model: CompletionNet, config: McnConfig | None = None,
                  rng: np.random.Generator | None = None, *, generator: torch.Generator | None = None,
                  ground_truth: TernaryMap | None = None, device: str | torch.device = "cpu") -> None:
         self.config = config = config or McnConfig()
@@ -202,7 +202,7 @@ class McnSlam:
         max_range, usable = self.slam.beam_limits()
         sc = self.slam.config
         self.lineages = [LineageMap(sc.resolution_m, lidar.angles_rad, lidar.base_to_laser.as_array(),
-                                    max_range_m=max_range, usable_m=usable, occ_thresh=sc.occ_thresh)
+                                    max_range_m=max_range, usable_m=usable, occ_thresh=sc.map.occ_thresh)
                          for _ in range(self._n_lineages)]
 
     def _sync(self, particles: I64) -> list[int]:

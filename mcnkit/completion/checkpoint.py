@@ -22,7 +22,15 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 from torch import nn
 
-from mcnkit.completion.nets import DiscriminatorConfig, PatchDiscriminator, UNet, UNetConfig
+from mcnkit.completion.nets import (
+    CompletionNet,
+    DiscriminatorConfig,
+    MaskedSampler,
+    PatchDiscriminator,
+    SamplerConfig,
+    UNet,
+    UNetConfig,
+)
 from mcnkit.completion.registry import CheckpointError
 
 __all__ = [
@@ -39,7 +47,7 @@ __all__ = [
 
 FORMAT = "mcnkit-completion"
 VERSION = 1
-ARCHS = ("unet", "pix2pix")
+ARCHS = ("unet", "pix2pix", "sampler")
 
 
 @dataclass
@@ -47,7 +55,7 @@ class Checkpoint:
     """Loaded checkpoint: architecture, configs, tensors and info."""
 
     arch: str
-    generator_config: UNetConfig
+    generator_config: UNetConfig | SamplerConfig
     discriminator_config: DiscriminatorConfig | None
     tensors: dict[str, torch.Tensor]
     info: dict[str, Any] = field(default_factory=dict)
@@ -120,9 +128,11 @@ def load_checkpoint(path: str | os.PathLike[str], expect_arch: str | None = None
     if expect_arch is not None and arch != expect_arch:
         raise CheckpointError(f"{st_path}: checkpoint is a {arch} model, expected {expect_arch}")
     try:
-        gcfg = UNetConfig(**meta["generator"])
+        gcfg: UNetConfig | SamplerConfig = (
+            SamplerConfig.from_dict(meta["generator"]) if arch == "sampler" else UNetConfig(**meta["generator"])
+        )
         dcfg = DiscriminatorConfig(**meta["discriminator"]) if meta.get("discriminator") else None
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, KeyError) as exc:
         raise CheckpointError(f"{js_path}: bad network config ({exc})") from exc
     try:
         tensors = load_file(str(st_path))
@@ -160,10 +170,13 @@ def _load_into(model: nn.Module, state: dict[str, torch.Tensor], where: Path, wh
     model.load_state_dict(state)
 
 
-def build_models(ckpt: Checkpoint, path: str | os.PathLike[str] = "") -> tuple[UNet, PatchDiscriminator | None]:
+def build_models(
+    ckpt: Checkpoint, path: str | os.PathLike[str] = ""
+) -> tuple[CompletionNet, PatchDiscriminator | None]:
     """Builds the checkpoint's networks and loads their weights (shape-checked)."""
     where = checkpoint_paths(path)[0] if path else Path("<checkpoint>")
-    gen = UNet(ckpt.generator_config)
+    cfg = ckpt.generator_config
+    gen: CompletionNet = MaskedSampler(cfg) if isinstance(cfg, SamplerConfig) else UNet(cfg)
     _load_into(gen, ckpt.section("generator"), where, "generator")
     disc = None
     if ckpt.discriminator_config is not None and ckpt.section("discriminator"):
@@ -173,8 +186,10 @@ def build_models(ckpt: Checkpoint, path: str | os.PathLike[str] = "") -> tuple[U
 
 
 def load_generator(
-    path: str | os.PathLike[str], expect_arch: str | None = None, expect_config: UNetConfig | None = None
-) -> tuple[UNet, dict[str, Any]]:
+    path: str | os.PathLike[str],
+    expect_arch: str | None = None,
+    expect_config: UNetConfig | SamplerConfig | None = None,
+) -> tuple[CompletionNet, dict[str, Any]]:
     """The generator of a checkpoint in eval mode, and its info; refuses another arch or config."""
     ckpt = load_checkpoint(path, expect_arch)
     if expect_config is not None and ckpt.generator_config != expect_config:

@@ -20,6 +20,7 @@ Example:
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -29,11 +30,15 @@ from torch.nn import functional as F
 from torch.nn.utils.parametrizations import spectral_norm
 
 __all__ = [
+    "CompletionNet",
     "DiscriminatorConfig",
+    "MaskedSampler",
     "PatchDiscriminator",
+    "SamplerConfig",
     "UNet",
     "UNetConfig",
     "has_spectral_norm",
+    "occupancy_output",
     "soft_convert",
     "spectral_layers",
 ]
@@ -178,3 +183,64 @@ def has_spectral_norm(layer: nn.Module) -> bool:
     if params is None or "weight" not in params:
         return False
     return any(type(p).__name__ == "_SpectralNorm" for p in params["weight"])
+
+
+@dataclass(frozen=True)
+class SamplerConfig:
+    """A masked sampler: its U-net (2 input channels (image, mask), 1 output channel p(occupied)) and its schedule.
+
+    ``schedule`` is the share of m_t's unknown cells whose labels are drawn by the end of each round, increasing
+    to 1.0: few cells first, while the net still decides the house's extent, most cells last, when the drawn
+    cells around them have pinned walls and rooms down.
+    """
+
+    unet: UNetConfig = UNetConfig(
+        out_channels=1, base_channels=8, max_channels=64, depth=6, dropout=0.0, dropout_levels=0
+    )
+    schedule: tuple[float, ...] = (0.01, 0.03, 0.08, 0.18, 0.36, 0.64, 1.0)
+
+    def __post_init__(self) -> None:
+        if self.unet.in_channels != 2 or self.unet.out_channels != 1 or self.unet.noise_channels:
+            raise ValueError(f"a sampler's U-net reads (image, mask) and writes p(occupied): {self.unet}")
+        s = self.schedule
+        if not s or s[-1] != 1.0 or any(b <= a for a, b in itertools.pairwise(s)) or s[0] <= 0.0:
+            raise ValueError(f"schedule must increase from above 0 to exactly 1.0, got {s}")
+
+    def as_dict(self) -> dict[str, Any]:
+        """The config as plain JSON-able values."""
+        return {"unet": self.unet.as_dict(), "schedule": list(self.schedule)}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SamplerConfig:
+        """The inverse of :meth:`as_dict`."""
+        return cls(UNetConfig(**d["unet"]), tuple(float(v) for v in d["schedule"]))
+
+
+class MaskedSampler(nn.Module):
+    """A generative completion net: a U-net that gives p(occupied) of every unknown cell given m_t *and* any
+    labels already drawn, so that drawing a map a share of cells at a time (``mcnkit.completion.masked``) makes
+    each draw condition on the earlier ones: walls continue, rooms close, and K draws are K different houses.
+
+    ``forward(x)`` is the deterministic view every completion net offers, (B, 2, H, W) = (image', mask'):
+    image' = p(occupied | m_t) on unknown cells and m_t on known ones, mask' = 0 (the sampler completes every cell).
+    """
+
+    def __init__(self, config: SamplerConfig | None = None) -> None:
+        super().__init__()
+        self.config = config or SamplerConfig()
+        self.net = UNet(self.config.unet)
+
+    def forward(self, x: torch.Tensor, sample: bool = False, generator: torch.Generator | None = None) -> torch.Tensor:
+        """``x``: (B, 2, H, W) = (image, mask); ``sample`` and ``generator`` are accepted for the U-net's signature
+        (one pass is deterministic: sampling is :func:`mcnkit.completion.masked.draw`)."""
+        return occupancy_output(self.net(x), x)
+
+
+def occupancy_output(p_occupied: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
+    """(B, 2, H, W) = (p(occupied) on x's unknown cells and x's image on its known ones, 0) from (B, 1, H, W)."""
+    known = x[:, 1:2] < 0.5
+    return torch.cat([torch.where(known, x[:, :1], p_occupied), torch.zeros_like(p_occupied)], dim=1)
+
+
+CompletionNet = UNet | MaskedSampler
+"""Any completion net: a deterministic U-net (dropout samples) or a masked sampler."""

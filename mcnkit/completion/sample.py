@@ -31,7 +31,8 @@ from numpy.typing import NDArray
 from torch import nn
 from torch.nn.utils import parametrize
 
-from mcnkit.completion.nets import UNet
+from mcnkit.completion.masked import draw
+from mcnkit.completion.nets import CompletionNet, MaskedSampler, UNet, occupancy_output
 from mcnkit.grid import network_to_ternary, ternary_to_network
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
@@ -74,7 +75,7 @@ def _as_input(partial: NDArray[np.floating] | torch.Tensor, device: torch.device
     return x.to(device=device, dtype=torch.float32)
 
 
-_FROZEN: weakref.WeakKeyDictionary[nn.Module, tuple[tuple[int, ...], UNet]] = weakref.WeakKeyDictionary()
+_FROZEN: weakref.WeakKeyDictionary[nn.Module, tuple[tuple[int, ...], CompletionNet]] = weakref.WeakKeyDictionary()
 
 
 def _fingerprint(net: nn.Module) -> tuple[int, ...]:
@@ -135,21 +136,26 @@ def _freeze(net: UNet) -> UNet:
     return frozen
 
 
-def inference_net(net: UNet) -> UNet:
-    """The frozen inference copy of ``net`` (cached; rebuilt when its weights change).  Nets that are not a plain
-    :class:`UNet` (wrappers, subclasses) are returned unchanged."""
-    if type(net) is not UNet:
+def inference_net(net: CompletionNet) -> CompletionNet:
+    """The frozen inference copy of ``net`` (cached; rebuilt when its weights change): a plain :class:`UNet`, or a
+    :class:`MaskedSampler` around one.  Other nets (wrappers, subclasses) are returned unchanged."""
+    if type(net) not in (UNet, MaskedSampler):
         return net
     key = _fingerprint(net)
     hit = _FROZEN.get(net)
     if hit is not None and hit[0] == key:
         return hit[1]
-    frozen = _freeze(net)
+    frozen: CompletionNet
+    if isinstance(net, MaskedSampler):
+        frozen = MaskedSampler(net.config).eval()
+        frozen.net = _freeze(net.net)
+    else:
+        frozen = _freeze(net)
     _FROZEN[net] = (key, frozen)
     return frozen
 
 
-def _symmetric_output(net: UNet, x: torch.Tensor, transpose: bool = True) -> torch.Tensor:
+def _symmetric_output(net: CompletionNet, x: torch.Tensor, transpose: bool = True) -> torch.Tensor:
     """Mean of the outputs over the symmetries of the square (each undone on its output); x square.  The 8
     symmetries, or with ``transpose=False`` the 4 flips (what a net trained with ``--flips-only`` has seen)."""
     transposes = (False, True) if transpose else (False,)
@@ -165,7 +171,7 @@ def _symmetric_output(net: UNet, x: torch.Tensor, transpose: bool = True) -> tor
 
 @torch.inference_mode()
 def network_outputs(
-    net: UNet,
+    net: CompletionNet,
     partial: NDArray[np.floating],
     device: torch.device | str = "cpu",
     batch_size: int = 256,
@@ -194,7 +200,7 @@ def network_outputs(
 
 
 def complete(
-    net: UNet,
+    net: CompletionNet,
     partial: NDArray[np.floating],
     device: torch.device | str = "cpu",
     batch_size: int = 256,
@@ -232,13 +238,18 @@ def diversity(samples: NDArray[np.floating]) -> F32:
 
 @torch.inference_mode()
 def sample_completions(
-    net: UNet,
+    net: CompletionNet,
     partial: NDArray[np.floating] | torch.Tensor,
     k: int = 8,
     generator: torch.Generator | None = None,
     device: torch.device | str = "cpu",
 ) -> SampleSet:
-    """K sampled completions of each m_t (B, H, W) [or network input (B, 2, H, W)], all in one batch."""
+    """K sampled completions of each m_t (B, H, W) [or network input (B, 2, H, W)], all in one batch.
+
+    A :class:`MaskedSampler` draws each sample round by round (:func:`mcnkit.completion.masked.draw`); its
+    ``mean_output`` is its p(occupied | m_t), which the samples' share of "occupied" estimates.  A :class:`UNet`
+    draws all K in one pass with dropout on (and noise channels drawn, if it has any).
+    """
     if k < 1:
         raise ValueError(f"k must be at least 1, got {k}")
     fast = inference_net(net)  # eval mode: batch norm uses its running statistics; dropout on through sample=True
@@ -247,10 +258,18 @@ def sample_completions(
         net.eval()
     x = _as_input(partial, torch.device(device))
     b, c, h, w = x.shape
-    xx = x.unsqueeze(1).expand(b, k, c, h, w).reshape(b * k, c, h, w)
-    out = fast(xx, sample=True, generator=generator).reshape(b, k, 2, h, w).cpu().numpy()
+    if isinstance(fast, MaskedSampler):
+        inner = fast.net
+        drawn = draw(inner, x, k, fast.config.schedule, generator)  # (B, K, H, W): 0/1 where m_t is unknown
+        samples = np.where(drawn.cpu().numpy() >= 0.5, OCCUPIED, FREE).astype(np.float32)
+        known = (x[:, 1] < 0.5).cpu().numpy()[:, None]
+        samples = np.where(known, x[:, None, 0].cpu().numpy(), samples).astype(np.float32)
+        mean_out = occupancy_output(inner(x), x).cpu().numpy()
+    else:
+        xx = x.unsqueeze(1).expand(b, k, c, h, w).reshape(b * k, c, h, w)
+        out = fast(xx, sample=True, generator=generator).reshape(b, k, 2, h, w).cpu().numpy()
+        samples = network_to_ternary(out)  # (B, K, H, W)
+        mean_out = out.mean(axis=1)
     if fast is net:
         net.train(was_training)
-    samples = network_to_ternary(out)  # (B, K, H, W)
-    mean_out = out.mean(axis=1)
     return SampleSet(samples, mean_out.astype(np.float32), network_to_ternary(mean_out), label_entropy(samples))

@@ -36,7 +36,17 @@ from tqdm import tqdm
 
 from mcnkit.completion.checkpoint import Checkpoint, build_models, load_checkpoint, save_checkpoint
 from mcnkit.completion.data import augment_dihedral, encode, load_domain_pairs
-from mcnkit.completion.nets import DiscriminatorConfig, PatchDiscriminator, UNet, UNetConfig, soft_convert
+from mcnkit.completion.masked import masked_bce, reveal_for_training
+from mcnkit.completion.nets import (
+    CompletionNet,
+    DiscriminatorConfig,
+    MaskedSampler,
+    PatchDiscriminator,
+    SamplerConfig,
+    UNet,
+    UNetConfig,
+    soft_convert,
+)
 from mcnkit.completion.sample import complete
 from mcnkit.completion.scores import score_maps
 from mcnkit.datasets import PairSplits
@@ -50,6 +60,8 @@ class TrainConfig:
     """Everything a training run depends on (written into every checkpoint)."""
 
     model: str = "unet"
+    """unet: the paper's U-net (L2); pix2pix: the same with a patch discriminator; sampler: a masked sampler that
+    draws whole maps round by round (binary cross-entropy on partly revealed maps)."""
     domain: str = "houseexpo"
     out_dir: str = "runs/unet"
     n_train: int = 5000
@@ -82,10 +94,12 @@ class TrainConfig:
     progress: bool = True
     houseexpo: str | None = None
     cache_dir: str | None = None
+    schedule: tuple[float, ...] = SamplerConfig.schedule
+    """sampler: the share of the unknown cells drawn by the end of each round (increasing to 1.0)."""
 
     def __post_init__(self) -> None:
-        if self.model not in ("unet", "pix2pix"):
-            raise ValueError(f"model must be unet or pix2pix, got {self.model!r}")
+        if self.model not in ("unet", "pix2pix", "sampler"):
+            raise ValueError(f"model must be unet, pix2pix or sampler, got {self.model!r}")
         if self.epochs < 1 or self.batch_size < 1 or self.n_train < 1:
             raise ValueError("epochs, batch size and n_train must be positive")
 
@@ -170,10 +184,34 @@ def _dist_info() -> tuple[int, int]:
     return 0, 1
 
 
-def _validate(gen: UNet, splits: PairSplits, device: torch.device) -> dict[str, float]:
+def _validate(gen: CompletionNet, splits: PairSplits, device: torch.device) -> dict[str, float]:
     pred = complete(gen, splits.val.partial, device=device)
     s = score_maps(pred, splits.val.target, splits.val.partial, "free")
-    return {"val_f": s.f_measure, "val_miou": s.miou_unknown, "val_acc": s.accuracy}
+    rec = {"val_f": s.f_measure, "val_miou": s.miou_unknown, "val_acc": s.accuracy}
+    if isinstance(gen, MaskedSampler):
+        rec["val_nll"] = _sampler_nll(gen, splits, device)
+    return rec
+
+
+@torch.no_grad()
+def _sampler_nll(gen: MaskedSampler, splits: PairSplits, device: torch.device) -> float:
+    """Mean cross-entropy of the sampler's p(occupied) on validation maps partly revealed (the same reveals every
+    epoch), the figure it is trained and selected on."""
+    x, y = encode(splits.val)
+    x_in, cells = reveal_for_training(x, y, gen.config.schedule, torch.Generator().manual_seed(12345))
+    total, n = 0.0, 0.0
+    for i in range(0, len(x_in), 256):
+        xi, ci = x_in[i : i + 256].to(device), cells[i : i + 256].to(device)
+        w = float(ci.sum())
+        total += float(masked_bce(gen(xi)[:, :1], y[i : i + 256, :1].to(device), ci)) * w
+        n += w
+    return total / max(n, 1.0)
+
+
+def _score(rec: dict[str, float]) -> float:
+    """What picks the best checkpoint: a sampler's validation cross-entropy (lower is better), else the mean of
+    the deterministic completion's F and mIoU."""
+    return -rec["val_nll"] if "val_nll" in rec else (rec["val_f"] + rec["val_miou"]) / 2
 
 
 def _lr_factor(step: int, total: int, time_fraction: float = 0.0) -> float:
@@ -185,7 +223,14 @@ def _lr_factor(step: int, total: int, time_fraction: float = 0.0) -> float:
     return 0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
 
 
-def _build(cfg: TrainConfig, size: int) -> tuple[UNet, PatchDiscriminator | None]:
+def _build(cfg: TrainConfig, size: int) -> tuple[CompletionNet, PatchDiscriminator | None]:
+    if cfg.model == "sampler":
+        ucfg = UNetConfig(out_channels=1, base_channels=cfg.base_channels, max_channels=cfg.max_channels,
+                          depth=cfg.depth, dropout=0.0, dropout_levels=0, size=size)
+        sampler = MaskedSampler(SamplerConfig(ucfg, cfg.schedule))
+        if cfg.init_from:
+            sampler.load_state_dict(build_models(load_checkpoint(cfg.init_from), cfg.init_from)[0].state_dict())
+        return sampler, None
     gcfg = UNetConfig(
         base_channels=cfg.base_channels,
         max_channels=cfg.max_channels,
@@ -230,7 +275,7 @@ def _train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
     gen.to(device)
     if disc is not None:
         disc.to(device)
-    ema: UNet | None = None
+    ema: CompletionNet | None = None
     if cfg.ema_decay > 0:
         ema = copy.deepcopy(gen).eval()
         for p in ema.parameters():
@@ -286,21 +331,25 @@ def _train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
             time_fraction = elapsed_min / cfg.max_minutes if cfg.max_minutes else 0.0
             for group in opt_g.param_groups:
                 group["lr"] = cfg.lr * _lr_factor(step, total_steps, time_fraction)
-            unknown = x[:, 1:2]
-            fake = g_model(x)
-            loss = (
-                cfg.recon_weight * weighted_l2(fake, y, unknown, cfg.unknown_weight, cfg.free_weight)
-                if disc
-                else weighted_l2(fake, y, unknown, cfg.unknown_weight, cfg.free_weight)
-            )
-            if d_model is not None and opt_d is not None:
-                real_logits = d_model(x[:, :1], y[:, :1])
-                fake_logits = d_model(x[:, :1], soft_convert(fake.detach()))
-                loss_d = torch.relu(1 - real_logits).mean() + torch.relu(1 + fake_logits).mean()
-                opt_d.zero_grad(set_to_none=True)
-                loss_d.backward()
-                opt_d.step()
-                loss = loss - cfg.gan_weight * d_model(x[:, :1], soft_convert(fake)).mean()
+            if cfg.model == "sampler":
+                x_in, cells = reveal_for_training(x, y, cfg.schedule, rng)
+                loss = masked_bce(g_model(x_in)[:, :1], y[:, :1], cells)
+            else:
+                unknown = x[:, 1:2]
+                fake = g_model(x)
+                loss = (
+                    cfg.recon_weight * weighted_l2(fake, y, unknown, cfg.unknown_weight, cfg.free_weight)
+                    if disc
+                    else weighted_l2(fake, y, unknown, cfg.unknown_weight, cfg.free_weight)
+                )
+                if d_model is not None and opt_d is not None:
+                    real_logits = d_model(x[:, :1], y[:, :1])
+                    fake_logits = d_model(x[:, :1], soft_convert(fake.detach()))
+                    loss_d = torch.relu(1 - real_logits).mean() + torch.relu(1 + fake_logits).mean()
+                    opt_d.zero_grad(set_to_none=True)
+                    loss_d.backward()
+                    opt_d.step()
+                    loss = loss - cfg.gan_weight * d_model(x[:, :1], soft_convert(fake)).mean()
             opt_g.zero_grad(set_to_none=True)
             loss.backward()
             opt_g.step()
@@ -326,7 +375,7 @@ def _train(cfg: TrainConfig, splits: PairSplits | None = None) -> TrainResult:
             }
             rec["wall_time_s"] = wall_before + time.perf_counter() - t_start
             history.append(rec)
-            score = (rec["val_f"] + rec["val_miou"]) / 2
+            score = _score(rec)
             if cfg.progress:
                 tqdm.write(
                     f"epoch {epoch + 1}: loss {rec['train_loss']:.4f} val F {rec['val_f']:.4f} "

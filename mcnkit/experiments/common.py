@@ -21,7 +21,7 @@ import torch
 from numpy.typing import NDArray
 
 from mcnkit.app.drive import DriveStep, Outcome, drive
-from mcnkit.completion.nets import UNet
+from mcnkit.completion.nets import CompletionNet
 from mcnkit.completion.sample import complete, label_entropy, sample_completions
 from mcnkit.completion.scores import PositiveClass, Scores, mean_ci95, score_maps
 from mcnkit.slam import FastSlam, SlamConfig
@@ -104,7 +104,7 @@ def new_lineage(slam: FastSlam) -> LineageMap:
     assert lidar is not None
     max_range, usable = slam.beam_limits()
     return LineageMap(slam.config.resolution_m, lidar.angles_rad, lidar.base_to_laser.as_array(),
-                      max_range_m=max_range, usable_m=usable, occ_thresh=slam.config.occ_thresh)
+                      max_range_m=max_range, usable_m=usable, occ_thresh=slam.config.map.occ_thresh)
 
 
 def map_at(run: SlamRun, k: int, lineage: LineageMap | None = None) -> TernaryMap:
@@ -138,7 +138,7 @@ class MapCompletions:
     uncertainty: F32
 
 
-def complete_windows(net: UNet, partial: F32, k: int, generator: torch.Generator) -> MapCompletions:
+def complete_windows(net: CompletionNet, partial: F32, k: int, generator: torch.Generator) -> MapCompletions:
     """K sampled completions (dropout on, one batch), their mean, and the deterministic completion of each m_t."""
     s = sample_completions(net, partial, k, generator)
     samples = _keep_observed(s.samples, partial[:, None])

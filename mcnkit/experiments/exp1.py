@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from mcnkit.completion.calibration import score_samples
 from mcnkit.completion.checkpoint import load_generator
 from mcnkit.completion.data import load_domain_pairs
-from mcnkit.completion.nets import UNet
+from mcnkit.completion.nets import CompletionNet
 from mcnkit.completion.registry import default_weights_dir
 from mcnkit.completion.retrieval import retrieve
 from mcnkit.completion.sample import SampleSet, complete, sample_completions
@@ -57,7 +57,7 @@ def _rows(method: str, train_domain: str, test_domain: str, pred: NDArray[np.flo
             for positive in ("free", "occupied")]
 
 
-def _example_samples(test: PairSet, nets: dict[str, UNet], k: int, n: int, seed: int
+def _example_samples(test: PairSet, nets: dict[str, CompletionNet], k: int, n: int, seed: int
                      ) -> tuple[NDArray[np.int64], dict[str, SampleSet]]:
     """The example maps (``n`` spread over the test set) and each network's ``k`` samples of them."""
     idx = np.linspace(0, len(test) - 1, min(n, len(test))).astype(int)
@@ -69,7 +69,7 @@ SAMPLE_K = 8
 """Samples per test map for the sampled table (issue 15's protocol)."""
 
 
-def _sample_row(label: str, train_domain: str, test_domain: str, net: UNet, test: PairSet, k: int, seed: int
+def _sample_row(label: str, train_domain: str, test_domain: str, net: CompletionNet, test: PairSet, k: int, seed: int
                 ) -> Exp1SampleRow:
     """``net``'s ``k`` samples of every test map (seeded, in batches of 100), scored."""
     generator = torch.Generator().manual_seed(seed)
@@ -97,7 +97,7 @@ def _run_exp1(cfg: Exp1Config) -> str:
     he_test = PairSet(he.test.partial[: cfg.n_test], he.test.target[: cfg.n_test], he.test.ids[: cfg.n_test])
     proc = procedural_pairs(cfg.n_procedural_train, 0, cfg.n_procedural_test, seed=cfg.seed)
     tests = {"houseexpo": (he_test, he.train.target), "procedural": (proc.test, proc.train.target)}
-    nets: dict[tuple[str, str], UNet] = {}
+    nets: dict[tuple[str, str], CompletionNet] = {}
     notes = [
         f"HouseExpo test: the first {cfg.n_test} of the seeded shuffle of the official test list "
         f"(the first 100 are the paper protocol); procedural test: {cfg.n_procedural_test} apartments with HOME'S masking.",

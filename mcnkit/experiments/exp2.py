@@ -47,7 +47,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from mcnkit.completion.nets import UNet
+from mcnkit.completion.nets import CompletionNet
 from mcnkit.completion.scores import mean_ci95
 from mcnkit.experiments.common import (
     MapCompletions,
@@ -143,7 +143,7 @@ def _per_map_rows(iteration: str, method: str, variant: str, pred: F32, truth: F
             for b, h in enumerate(houses)]
 
 
-def _predictions(partial: F32, nets: dict[str, UNet], bank: F32 | None, k: int, seed: int, tag: int
+def _predictions(partial: F32, nets: dict[str, CompletionNet], bank: F32 | None, k: int, seed: int, tag: int
                  ) -> tuple[dict[tuple[str, str], F32], dict[str, MapCompletions]]:
     """Every method's prediction for a stack of m_t: {(method, variant): (B, S, S) or (B, K, S, S)}."""
     from mcnkit.completion.retrieval import retrieve
@@ -164,7 +164,7 @@ def _predictions(partial: F32, nets: dict[str, UNet], bank: F32 | None, k: int, 
     return preds, comps
 
 
-def _curve(houses: list[HouseRun], nets: dict[str, UNet], k: int, seed: int) -> list[CurveRow]:
+def _curve(houses: list[HouseRun], nets: dict[str, CompletionNet], k: int, seed: int) -> list[CurveRow]:
     """F (free positive) and mIoU along the run at fractions 0, 0.1, …, 1 of the filter updates (the all-occupied
     fill has the F of SLAM alone)."""
     rows: list[CurveRow] = []

@@ -39,7 +39,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from mcnkit.completion.nets import UNet
+from mcnkit.completion.nets import CompletionNet
 from mcnkit.completion.scores import mean_ci95
 from mcnkit.experiments.common import (
     complete_windows,
@@ -111,7 +111,7 @@ def _row(log: str, pw: PointWindows, n_updates: int, method: str, variant: str, 
                    float((pw.partial == UNKNOWN).mean()), float((pw.truth == UNKNOWN).mean()))
 
 
-def _run_log(cfg: Exp3Config, path: str, nets: dict[str, UNet], out: Path, index: int
+def _run_log(cfg: Exp3Config, path: str, nets: dict[str, CompletionNet], out: Path, index: int
              ) -> tuple[list[Exp3Row], LogInfo]:
     from mcnkit.mcn import robot_window
     from mcnkit.slam import SlamConfig
