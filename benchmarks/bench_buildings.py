@@ -18,7 +18,7 @@ seed-0 map with the estimate in green and the aligned reference in red) and ``co
 
     .venv/bin/python -m benchmarks.bench_buildings [--seeds 0 1 2] [--only aces fr079] [--jobs 2]
     .venv/bin/python -m benchmarks.bench_buildings --extra /path/seattle-corrected.log.gz --out /tmp/b
-    .venv/bin/python -m benchmarks.bench_buildings --slam-option=--no-slam.motion-noise-from-log --out /tmp/c
+    .venv/bin/python -m benchmarks.bench_buildings --slam-option=--no-slam.motion.noise-from-log --out /tmp/c
 """
 
 from __future__ import annotations
@@ -186,7 +186,7 @@ def main() -> int:
                              "project was not developed on; use another --out to keep the committed results)")
     parser.add_argument("--slam-option", action="append", default=[], metavar="FLAG",
                         help="a flag passed on to every `mcnkit slam` run, to measure a setting across the buildings "
-                             "(repeatable; e.g. --slam-option=--no-slam.motion-noise-from-log; use another --out)")
+                             "(repeatable; e.g. --slam-option=--no-slam.motion.noise-from-log; use another --out)")
     args = parser.parse_args()
     options = [word for flag in args.slam_option for word in flag.split()]
     data = data_dir(args.data)

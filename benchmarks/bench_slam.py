@@ -69,7 +69,7 @@ def _loop_closure(log: Path, poses: np.ndarray, n_reference: int = 60, n_last: i
         frames = list(reader.frames())
     cfg = SlamConfig(n_particles=1)
     spec = frames[0].scan.spec
-    maps = TiledHitMaps(1, cfg.resolution_m, cfg.tile_cells)
+    maps = TiledHitMaps(1, cfg.resolution_m, cfg.map.tile_cells)
     laser = spec.base_to_laser.as_array()
 
     def beams(k: int) -> tuple[np.ndarray, np.ndarray]:

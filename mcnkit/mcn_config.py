@@ -37,7 +37,8 @@ class McnConfig:
     """Floor of the per-beam likelihood of the completion weighting."""
 
     def __post_init__(self) -> None:
-        if self.samples < 1 or self.ranks < 1 or self.every < 1 or self.size < 4:
-            raise ValueError(f"invalid MCN config: {self}")
+        for name, least in (("samples", 1), ("ranks", 1), ("every", 1), ("size", 4)):
+            if getattr(self, name) < least:
+                raise ValueError(f"{name} must be >= {least}, got {getattr(self, name)}")
         if self.window not in ("map", "robot"):
             raise ValueError(f"window must be 'map' or 'robot', got {self.window!r}")

@@ -219,10 +219,10 @@ def test_mcnkit_run_takes_slam_and_mcn_flags_and_reruns_from_its_summary(tmp_pat
     toml.write_text("seed = 2\nmodel = 'unet'\n[mcn]\nsamples = 3\nranks = 1\ncompletion_weight = 0.5\n"
                     "[recording]\nflush_updates = 7\n")
     assert main(["run", str(log), "--config", str(toml), "--samples", "2", "--slam.n-particles", "5",
-                 "--slam.linear-update-m", "0.5", "--mcn.every", "2", "--mcn.window", "robot", "--no-progress",
+                 "--slam.updates.linear-m", "0.5", "--mcn.every", "2", "--mcn.window", "robot", "--no-progress",
                  "--out", str(tmp_path / "first"), "--rrd", str(tmp_path / "first.rrd")]) == 0
     summary = json.loads((tmp_path / "first" / "summary.json").read_text())
-    assert summary["config"]["n_particles"] == 5 and summary["config"]["linear_update_m"] == 0.5
+    assert summary["config"]["n_particles"] == 5 and summary["config"]["updates"]["linear_m"] == 0.5
     assert summary["seed"] == 2 and summary["interrupted"] is False and summary["model"] == "unet"
     mcn = summary["mcn"]  # file, then short flags, then --mcn.FIELD; run's own default for the map
     assert (mcn["samples"], mcn["ranks"], mcn["every"], mcn["window"], mcn["completion_weight"]) == (2, 1, 2, "robot", 0.5)
@@ -266,4 +266,4 @@ def test_every_mcn_and_recording_field_has_a_flag_and_bad_values_are_one_line(
     err = capsys.readouterr().err.strip()
     assert err == f"mcnkit run: {bad}: window: expected one of 'map', 'robot', got 'room'", err
     assert main(["run", "x.mcap", "--mcn.samples", "0", "--no-progress"]) == 2
-    assert capsys.readouterr().err.startswith("mcnkit run: McnConfig: invalid MCN config")
+    assert capsys.readouterr().err.strip() == "mcnkit run: --mcn.samples must be >= 1, got 0"

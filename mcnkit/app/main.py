@@ -101,7 +101,11 @@ def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
     command = next((w for w in words if not w.startswith("-")), None)
     name = command if command in COMMANDS else None
     try:
-        args = build_parser(name).parse_args(words)
+        try:
+            parser = build_parser(name)  # a command's flags may come from a module of an optional extra
+        except ModuleNotFoundError as err:
+            return _missing_extra(name or "", err)
+        args = parser.parse_args(words)
         from mcnkit.app.outputs import OutputError
         from mcnkit.completion.registry import CheckpointError  # after parsing: --help needs none of these
         from mcnkit.io.errors import LogError
@@ -115,11 +119,7 @@ def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
         except (FileNotFoundError, IsADirectoryError, PermissionError, FileExistsError) as err:
             code = fail(name, f"{err.filename}: {err.strerror}")
         except ModuleNotFoundError as err:
-            extra = EXTRAS.get((err.name or "").split(".")[0])
-            if extra is None:
-                raise
-            code = fail(name, f"needs the optional '{extra}' dependencies ({err.name} is not installed): "
-                              f"pip install 'mcnkit[{extra}]'")
+            code = _missing_extra(name, err)
     except KeyboardInterrupt as err:  # a signal outside a drive (mcnkit.app.drive.Interrupted), or Ctrl-C elsewhere
         return _interrupted(name, getattr(err, "signum", sigint))
     except Exception:  # raised while the signal's exception unwound compiled code (numba's SystemError): the signal
@@ -129,6 +129,15 @@ def _main(argv: Sequence[str] | None, signals: Signals, sigint: int) -> int:
     if signals.received is not None:
         return _interrupted(name, signals.received)
     return code
+
+
+def _missing_extra(name: str, err: ModuleNotFoundError) -> int:
+    """One line naming the extra that installs the missing module (re-raised when no extra does)."""
+    extra = EXTRAS.get((err.name or "").split(".")[0])
+    if extra is None:
+        raise err
+    return fail(name, f"needs the optional '{extra}' dependencies ({err.name} is not installed): "
+                      f"pip install 'mcnkit[{extra}]'")
 
 
 EXTRAS = {"torch": "completion", "safetensors": "completion", "skimage": "completion", "matplotlib": "completion",

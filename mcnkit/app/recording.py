@@ -8,7 +8,7 @@ the run hosts itself on 127.0.0.1 (``--serve``: viewers connect to it, late ones
 :class:`LiveViewer` is where the live stream goes (:mod:`mcnkit.viz` opens it).
 
     p = argparse.ArgumentParser()
-    add_recording_flags(p)                    # --connect [URL], --serve, --recording.grpc-port, ...
+    add_options(p, LiveOptions, const=LIVE_CONST)   # --connect [URL], --serve, --recording.grpc-port, ...
     args = p.parse_args(["--serve", "--recording.grpc-port", "0"])
     live = live_viewer(args, RecordingConfig(grpc_port=0))   # LiveViewer(serve_port=<a free port>, ...)
 """
@@ -18,10 +18,10 @@ from __future__ import annotations
 import argparse
 import re
 import socket
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from urllib.parse import quote
 
-__all__ = ["DEFAULT_VIEWER_URL", "LiveViewer", "RecordingConfig", "ViewerError", "add_recording_flags",
+__all__ = ["DEFAULT_VIEWER_URL", "LIVE_CONST", "LiveOptions", "LiveViewer", "RecordingConfig", "ViewerError",
            "check_viewer", "free_port", "live_viewer", "viewer_url"]
 
 DEFAULT_VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"
@@ -154,17 +154,21 @@ def live_viewer(args: argparse.Namespace, config: RecordingConfig) -> LiveViewer
     return LiveViewer(url, serve_port, web_port, config.server_memory_limit)
 
 
-def add_recording_flags(parser: argparse.ArgumentParser) -> None:
-    """Adds ``--connect [URL]``, ``--serve`` and a ``--recording.FIELD`` flag for every :class:`RecordingConfig`
-    field."""
-    from mcnkit.app.runconfig import add_dataclass_flags
+@dataclass(frozen=True, kw_only=True)
+class LiveOptions:
+    """The options of a command that records a run: where it streams live (``--connect``, ``--serve``) and its
+    ``--recording.FIELD`` settings (:mod:`mcnkit.app.options` makes the flags)."""
 
-    parser.add_argument("--connect", nargs="?", const="", default=None, metavar="URL",
-                        help="stream every step live to a running Rerun viewer (start one with 'rerun'); URL: "
-                             f"its gRPC address, a port or HOST:PORT (default {DEFAULT_VIEWER_URL})")
-    parser.add_argument("--serve", action="store_true",
-                        help="serve the recording live from a gRPC server on 127.0.0.1 (port --recording.grpc-port) "
-                             "and print the address to open it with ('rerun --connect URL'; a browser with "
-                             "--recording.web-viewer); keeps serving after the run until Ctrl-C "
-                             "(--recording.linger-s)")
-    add_dataclass_flags(parser, RecordingConfig, "recording")
+    connect: str | None = None
+    """stream every step live to a running Rerun viewer (start one with 'rerun'); URL: its gRPC address, a port or
+    HOST:PORT (default rerun+http://127.0.0.1:9876/proxy)"""
+    serve: bool = False
+    """serve the recording live from a gRPC server on 127.0.0.1 (port --recording.grpc-port) and print the address
+    to open it with ('rerun --connect URL'; a browser with --recording.web-viewer); keeps serving after the run
+    until Ctrl-C (--recording.linger-s)"""
+    recording: RecordingConfig = field(default_factory=RecordingConfig)
+    """How the run is recorded."""
+
+
+LIVE_CONST = {"connect": ""}
+"""``--connect`` given without a URL: the default viewer (:func:`viewer_url`)."""

@@ -1,37 +1,34 @@
-"""Run configuration from the dataclasses themselves: ``--<section>.<field>`` flags generated from every field of
-a config dataclass (help text = the field's docstring), and config files (TOML, or the JSON ``summary.json`` a run
-writes) read into the same dataclass.
+"""Run configuration: a section of settings (a dataclass, sections within it included) from its defaults, a config
+file, a command's short flags and the ``--SECTION.FIELD`` flags (:mod:`mcnkit.app.options` generates them).
 
     p = argparse.ArgumentParser()
-    add_dataclass_flags(p, SlamConfig, "slam")          # --slam.n-particles, --slam.loop-closure/--no-slam.…, …
-    args = p.parse_args(["--slam.n-particles", "50"])
-    config = build_dataclass(SlamConfig, read_config_file(path).get("slam", {}), dataclass_overrides(args, "slam"))
+    add_section_flags(p, SlamConfig, "slam")            # --slam.n-particles, --slam.loops.closure/--no-…, …
+    args = p.parse_args(["--slam.loops.window-m", "1.0"])
+    config = resolve_section(SlamConfig, args, "slam", read_config_file(path))
 
-Precedence: the dataclass defaults, then the file, then the flags.  Unknown keys in a file are an error (a typo
-must not be ignored quietly).  Chosen over a library (tyro, draccus, jsonargparse, simple-parsing): those build
-the whole command line from types and import much more at start-up; here argparse stays the one parser of
-``mcnkit`` and only the dataclass sections are generated.
+Precedence: the dataclass defaults, then the file (TOML tables ``[slam]``, ``[slam.loops]``, …, or the JSON
+``summary.json`` a run writes), then the short flags, then ``--SECTION.FIELD``.  Unknown keys in a file are an
+error (a typo must not be ignored quietly), and a value that a section refuses is reported under the name the
+user gave it: ``--particles must be > 0, got 0``, or the file and its key.
 """
 
 from __future__ import annotations
 
 import argparse
-import ast
 import dataclasses
-import inspect
-import itertools
 import json
-import re
 import typing
-from functools import cache
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
+
+from mcnkit.app.options import flag_name, hint_of, rename_fields
 
 if TYPE_CHECKING:
     from mcnkit.slam.config import SlamConfig
 
-__all__ = ["ConfigError", "add_dataclass_flags", "build_dataclass", "config_file", "dataclass_overrides",
-           "read_config_file", "resolve_section", "resolve_seed", "resolve_slam_config"]
+__all__ = ["ConfigError", "build_dataclass", "config_file", "dataclass_overrides", "read_config_file",
+           "resolve_section", "resolve_seed", "resolve_slam_config"]
 
 T = TypeVar("T")
 
@@ -40,82 +37,25 @@ class ConfigError(ValueError):
     """A config file or value that cannot be used; ``str()`` is one line."""
 
 
-@cache
-def _field_docs(cls: type) -> dict[str, str]:
-    """The docstring under each field of a dataclass (its first sentence), from the source."""
-    try:
-        tree = ast.parse(inspect.getsource(cls))
-    except (OSError, TypeError, SyntaxError):
-        return {}
-    body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
-    docs: dict[str, str] = {}
-    for node, after in itertools.pairwise(body):
-        if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and isinstance(after, ast.Expr)
-                and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
-            text = " ".join(after.value.value.split())
-            text = re.sub(r":\w+:`~?([^`]+)`", r"\1", text).replace("``", "")  # reST roles and literals, as plain text
-            docs[node.target.id] = text.split(". ")[0].rstrip(".") + "."  # the first sentence
-    return docs
+class _Refused(ConfigError):
+    """A section refused its values: ``str()`` names its fields; ``path`` is where the section is."""
 
-
-def _flag(field: str) -> str:
-    return field.rstrip("_").replace("_", "-")
-
-
-def _kind(hint: Any) -> tuple[type, bool]:
-    """(the scalar type, whether None is allowed) of a field's type hint (a ``Literal`` of strings: ``str``)."""
-    if typing.get_origin(hint) is typing.Literal:
-        return str, False
-    args = [a for a in typing.get_args(hint) if a is not type(None)]
-    if args:
-        return _kind(args[0])[0], len(args) < len(typing.get_args(hint))
-    return hint, False
-
-
-def _choices(hint: Any) -> tuple[Any, ...] | None:
-    """The values a ``Literal[...]`` field allows (None for other fields)."""
-    if typing.get_origin(hint) is typing.Literal:
-        return typing.get_args(hint)
-    return None
-
-
-def _parser_of(kind: type, optional: bool) -> Any:
-    def parse(text: str) -> Any:
-        if optional and text.lower() in ("none", "null", ""):
-            return None
-        return kind(text)
-
-    parse.__name__ = kind.__name__ + (" or none" if optional else "")
-    return parse
-
-
-def add_dataclass_flags(parser: argparse.ArgumentParser, cls: type, section: str) -> None:
-    """Adds ``--SECTION.FIELD`` for every field of the dataclass ``cls`` (underscores as dashes; booleans as
-    ``--SECTION.FIELD`` / ``--no-SECTION.FIELD``), in an argument group, with the default and docstring as help.
-    Values land in ``args`` as ``SECTION.FIELD`` only when given (see :func:`dataclass_overrides`)."""
-    hints = typing.get_type_hints(cls)
-    docs = _field_docs(cls)
-    group = parser.add_argument_group(f"{section} settings ({cls.__name__}; override --config)")
-    for f in dataclasses.fields(cls):
-        kind, optional = _kind(hints[f.name])
-        default = f.default if f.default is not dataclasses.MISSING else None
-        help_text = f"{docs.get(f.name, f.name)} (default {default})".replace("%", "%%")
-        flag = f"--{section}.{_flag(f.name)}"
-        if kind is bool:
-            group.add_argument(flag, dest=f"{section}.{f.name}", action=argparse.BooleanOptionalAction,
-                               default=argparse.SUPPRESS, help=help_text)
-        elif (choices := _choices(hints[f.name])) is not None:
-            group.add_argument(flag, dest=f"{section}.{f.name}", choices=choices, default=argparse.SUPPRESS,
-                               help=help_text)
-        else:
-            group.add_argument(flag, dest=f"{section}.{f.name}", type=_parser_of(kind, optional),
-                               default=argparse.SUPPRESS, metavar=kind.__name__.upper(), help=help_text)
+    def __init__(self, path: str, cls: type, message: str) -> None:
+        super().__init__(message)
+        self.path, self.cls = path, cls
 
 
 def dataclass_overrides(args: argparse.Namespace, section: str) -> dict[str, Any]:
-    """The ``--SECTION.FIELD`` values given on the command line, by field name."""
-    prefix = section + "."
-    return {k[len(prefix):]: v for k, v in vars(args).items() if k.startswith(prefix)}
+    """The ``--SECTION.FIELD`` values given on the command line, nested as the section's tables are."""
+    out: dict[str, Any] = {}
+    for key, value in vars(args).items():
+        if key.startswith(section + "."):
+            *tables, name = key[len(section) + 1:].split(".")
+            target = out
+            for table in tables:
+                target = target.setdefault(table, {})
+            target[name] = value
+    return out
 
 
 def read_config_file(path: Path) -> dict[str, Any]:
@@ -136,34 +76,68 @@ def read_config_file(path: Path) -> dict[str, Any]:
     return data
 
 
-def _coerce(cls: type, name: str, value: Any) -> Any:
-    hint = typing.get_type_hints(cls)[name]
-    choices = _choices(hint)
-    if choices is not None and value not in choices:
-        raise ConfigError(f"{name}: expected one of {', '.join(map(repr, choices))}, got {value!r}")
-    kind, optional = _kind(hint)
-    if value is None and optional:
+def _coerce(cls: type, path: str, name: str, value: Any) -> Any:
+    hint = hint_of(typing.get_type_hints(cls)[name])
+    if hint.optional and value is None:
         return None
+    if hint.many is not None:
+        if not isinstance(value, list | tuple):
+            raise ConfigError(f"{path}{name}: expected a list, got {value!r}")
+        return hint.many(_scalar(hint, path, name, v) for v in value)
+    return _scalar(hint, path, name, value)
+
+
+def _scalar(hint: Any, path: str, name: str, value: Any) -> Any:
+    if hint.choices is not None and value not in hint.choices:
+        raise ConfigError(f"{path}{name}: expected one of {', '.join(map(repr, hint.choices))}, got {value!r}")
+    kind = hint.kind
     if kind is float and isinstance(value, int) and not isinstance(value, bool):
         return float(value)
+    if kind is Path and isinstance(value, str):
+        return Path(value)
     if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-        raise ConfigError(f"{name}: expected {kind.__name__}{' or null' if optional else ''}, got {value!r}")
+        raise ConfigError(f"{path}{name}: expected {kind.__name__}{' or null' if hint.optional else ''}, "
+                          f"got {value!r}")
     return value
 
 
-def build_dataclass(cls: type[T], *layers: dict[str, Any]) -> T:
-    """``cls(**defaults updated by each layer in turn)``; unknown or mistyped keys raise :class:`ConfigError`."""
+def _merge(into: dict[str, Any], layer: Mapping[str, Any]) -> None:
+    for key, value in layer.items():
+        if isinstance(value, dict) and isinstance(into.get(key), dict):
+            _merge(into[key], value)
+        else:
+            into[key] = value
+
+
+def _build(cls: type[T], table: Mapping[str, Any], path: str) -> T:
+    hints = typing.get_type_hints(cls)
     names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(table) - names)
+    if unknown:
+        raise ConfigError(f"unknown {cls.__name__} setting{'s' * (len(unknown) > 1)}: "
+                          f"{', '.join(path + u for u in unknown)}")
     values: dict[str, Any] = {}
-    for layer in layers:
-        unknown = sorted(set(layer) - names)
-        if unknown:
-            raise ConfigError(f"unknown {cls.__name__} setting{'s' * (len(unknown) > 1)}: {', '.join(unknown)}")
-        values.update({k: _coerce(cls, k, v) for k, v in layer.items()})
+    for key, value in table.items():
+        section = hint_of(hints[key]).kind
+        if dataclasses.is_dataclass(section):
+            if not isinstance(value, dict):
+                raise ConfigError(f"{path}{key}: expected a table of settings, got {value!r}")
+            values[key] = _build(section, value, f"{path}{key}.")  # type: ignore[arg-type]
+        else:
+            values[key] = _coerce(cls, path, key, value)
     try:
         return cls(**values)
     except (TypeError, ValueError) as err:
-        raise ConfigError(f"{cls.__name__}: {err}") from err
+        raise _Refused(path, cls, str(err)) from err
+
+
+def build_dataclass(cls: type[T], *layers: Mapping[str, Any]) -> T:
+    """``cls`` from its defaults updated by each layer in turn (a section's table updates that section field by
+    field); unknown or mistyped keys and refused values raise :class:`ConfigError`."""
+    merged: dict[str, Any] = {}
+    for layer in layers:
+        _merge(merged, layer)
+    return _build(cls, merged, "")
 
 
 def config_file(args: argparse.Namespace) -> dict[str, Any]:
@@ -172,12 +146,40 @@ def config_file(args: argparse.Namespace) -> dict[str, Any]:
     return read_config_file(path) if path is not None else {}
 
 
+def _given(table: Mapping[str, Any], dotted: str) -> bool:
+    *tables, name = dotted.split(".")
+    for key in tables:
+        table = table.get(key, {})
+        if not isinstance(table, Mapping):
+            return False
+    return name in table
+
+
+def _named(err: _Refused, section: str, flags: Mapping[str, Any], short: Mapping[str, str], table: Mapping[str, Any],
+           where: Path | None) -> ConfigError:
+    """``err`` with each field it names written as the user gave it: a short flag, ``--SECTION.FIELD``, or the
+    config file's key."""
+    labels: dict[str, str] = {}
+    from_file = False
+    for f in dataclasses.fields(err.cls):
+        dotted = err.path + f.name
+        if _given(flags, dotted) or (dotted not in short and not _given(table, dotted)):
+            label = f"--{section}.{'.'.join(flag_name(p) for p in dotted.split('.'))}"
+        elif dotted in short:
+            label = short[dotted]
+        else:
+            label, from_file = f"{section}.{dotted}", True
+        labels[f.name] = label
+    message = rename_fields(str(err), labels)
+    return ConfigError(f"{where}: {message}" if from_file else message)
+
+
 def resolve_section(cls: type[T], args: argparse.Namespace, section: str, file: dict[str, Any],
-                    short: dict[str, Any] | None = None, *, file_keys: tuple[str, ...] = (),
+                    short: Mapping[str, tuple[str, Any]] | None = None, *, file_keys: tuple[str, ...] = (),
                     defaults: dict[str, Any] | None = None) -> T:
     """One section of the run configuration: ``cls``'s defaults (a command's own ``defaults`` over them), then the
-    file's table (the first of ``section``, ``*file_keys`` it has), then the short flags ``short`` (None values:
-    not given), then ``--SECTION.FIELD``."""
+    file's table (the first of ``section``, ``*file_keys`` it has), then the short flags ``short`` (field ->
+    (flag, value); None values: not given), then ``--SECTION.FIELD``."""
     key = next((k for k in (section, *file_keys) if k in file), None)
     table = file.get(key, {}) if key is not None else {}
     where = getattr(args, "config", None)
@@ -185,10 +187,17 @@ def resolve_section(cls: type[T], args: argparse.Namespace, section: str, file: 
         raise ConfigError(f"{where}: '{key}' is not a table of settings")
     try:
         build_dataclass(cls, table)
+    except _Refused as err:
+        raise _named(err, section, {}, {}, table, where) from err
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from err
-    given = {k: v for k, v in (short or {}).items() if v is not None}
-    return build_dataclass(cls, defaults or {}, table, given, dataclass_overrides(args, section))
+    given = {k: value for k, (_, value) in (short or {}).items() if value is not None}
+    flags = dataclass_overrides(args, section)
+    try:
+        return build_dataclass(cls, defaults or {}, table, given, flags)
+    except _Refused as err:
+        names = {k: flag for k, (flag, _) in (short or {}).items() if k in given}
+        raise _named(err, section, flags, names, table, where) from err
 
 
 def resolve_seed(args: argparse.Namespace, file: dict[str, Any]) -> int:
@@ -201,10 +210,13 @@ def resolve_seed(args: argparse.Namespace, file: dict[str, Any]) -> int:
 
 def resolve_slam_config(args: argparse.Namespace, file: dict[str, Any] | None = None) -> tuple[SlamConfig, int]:
     """The filter's settings and the seed: defaults, then ``--config`` (its ``slam`` table, or the ``config`` of a
-    ``summary.json``), then ``--particles`` / ``--resolution``, then ``--slam.FIELD`` flags."""
-    from mcnkit.slam.config import SlamConfig
+    ``summary.json``; the flat names of a file written before SlamConfig had sections are read into their
+    sections), then ``--particles`` / ``--resolution``, then ``--slam.FIELD`` flags."""
+    from mcnkit.slam.config import SlamConfig, nest_flat_config
 
     file = config_file(args) if file is None else file
-    short = {"n_particles": getattr(args, "particles", None), "resolution_m": getattr(args, "resolution", None)}
+    file = {k: nest_flat_config(v) if k in ("slam", "config") and isinstance(v, dict) else v for k, v in file.items()}
+    short = {"n_particles": ("--particles", getattr(args, "particles", None)),
+             "resolution_m": ("--resolution", getattr(args, "resolution", None))}
     config = resolve_section(SlamConfig, args, "slam", file, short, file_keys=("config",))
     return config, resolve_seed(args, file)

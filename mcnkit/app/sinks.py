@@ -125,7 +125,7 @@ class SlamOutputs:
                 write_tum(tmp / f"{name}.tum", slam.trajectory(mode=mode))
             # the map is cast from trajectory.tum's poses at the update scans: the map and the trajectory agree
             spec, strips = slam.best_map_strips(poses=main.poses[slam.update_scans()])
-            write_map_strips(tmp, spec, strips, slam.config.occ_thresh)
+            write_map_strips(tmp, spec, strips, slam.config.map.occ_thresh)
             self.summary = {
                 **self.info,
                 **_stop_fields(outcome),

@@ -9,9 +9,9 @@ samples of the share of cells on which they differ.
 
 Fast path: both functions run a frozen inference copy of the net (:func:`inference_net`): spectral norm
 evaluated once (W/σ stored as a plain weight) and eval-mode batch norm folded into the preceding (transposed)
-convolution, weights in channels-last layout (measured ≈ 15 % faster for the 240-map batch at 2 threads;
-rewriting the transposed convolutions as convolution + pixel shuffle was measured and not faster).  It computes the same function as ``net`` in eval mode (up to float rounding), is cached per net and
-rebuilt whenever any of the net's parameters or buffers changed (``Tensor._version``); checkpoints are untouched.
+convolution, weights in channels-last layout (on which oneDNN runs these thin layers faster).  It computes the same
+function as ``net`` in eval mode (up to float rounding), is cached per net and rebuilt whenever any of the net's
+parameters or buffers changed (``Tensor._version``); checkpoints are untouched.
 
 Example:
     >>> net = UNet(UNetConfig(base_channels=4, depth=2)).eval()
@@ -128,7 +128,7 @@ def _freeze(net: UNet) -> UNet:
                 if isinstance(norm, nn.BatchNorm2d):
                     _fold_bn(conv, norm)
                     norms[i] = nn.Identity()
-    # NHWC: oneDNN runs these thin layers faster on it (batch of 240 at 2 threads: ≈ 62 vs 75 ms, interleaved runs).
+    # NHWC: oneDNN runs these thin layers faster on it.
     frozen.to(memory_format=torch.channels_last)  # type: ignore[call-overload]  # (missing from torch's stubs)
     net.train(was_training)
     for p in frozen.parameters():

@@ -1,8 +1,8 @@
 """The paper's experiments: Experiment 1 (map completion from one scan, :mod:`.exp1`), Experiment 2 (MCN-SLAM on
 simulated HouseExpo houses, :mod:`.exp2`) and Experiment 3 (the real-lab logs MIT CSAIL and Intel, :mod:`.exp3`).
 
-Each experiment is a frozen config dataclass and its command-line options (:mod:`.options`, so that
-``mcnkit experiment --help`` loads neither torch nor the SLAM), a ``run_*`` function that computes the rows of its
+Each experiment is a frozen config dataclass (:mod:`.config`, so that ``mcnkit experiment --help`` loads neither
+torch nor the SLAM; every field is a flag of its command), a ``run_*`` function that computes the rows of its
 tables and writes them (CSV, a Markdown report, PNG figures) and returns the Markdown.  Apart from the computing:
 the rows are dataclasses (:mod:`.rows`) written and read back by :mod:`.tables`; the paper's tables are data
 (:mod:`.paper`) and so are Experiment 2's targets (:mod:`.targets`); the reports and figures are
@@ -15,31 +15,15 @@ from typing import TYPE_CHECKING
 from mcnkit._lazy import lazy_exports
 
 if TYPE_CHECKING:
+    from mcnkit.experiments.config import Exp1Config, Exp2Config, Exp3Config
     from mcnkit.experiments.exp1 import run_exp1
     from mcnkit.experiments.exp2 import run_exp2
     from mcnkit.experiments.exp3 import run_exp3
-    from mcnkit.experiments.options import (
-        Exp1Config,
-        Exp2Config,
-        Exp3Config,
-        add_exp1_arguments,
-        add_exp2_arguments,
-        add_exp3_arguments,
-        exp1_config_from_args,
-        exp2_config_from_args,
-        exp3_config_from_args,
-    )
 
 __all__ = [
     "Exp1Config",
     "Exp2Config",
     "Exp3Config",
-    "add_exp1_arguments",
-    "add_exp2_arguments",
-    "add_exp3_arguments",
-    "exp1_config_from_args",
-    "exp2_config_from_args",
-    "exp3_config_from_args",
     "run_exp1",
     "run_exp2",
     "run_exp3",
@@ -49,7 +33,5 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "mcnkit.experiments.exp1": ("run_exp1",),
     "mcnkit.experiments.exp2": ("run_exp2",),
     "mcnkit.experiments.exp3": ("run_exp3",),
-    "mcnkit.experiments.options": ("Exp1Config", "Exp2Config", "Exp3Config", "add_exp1_arguments",
-                                   "add_exp2_arguments", "add_exp3_arguments", "exp1_config_from_args",
-                                   "exp2_config_from_args", "exp3_config_from_args"),
+    "mcnkit.experiments.config": ("Exp1Config", "Exp2Config", "Exp3Config"),
 })

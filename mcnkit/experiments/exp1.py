@@ -32,14 +32,14 @@ from mcnkit.completion.sample import SampleSet, complete, sample_completions
 from mcnkit.completion.scores import score_maps
 from mcnkit.datasets import PairSet, procedural_pairs
 from mcnkit.experiments.common import fill_unknown
+from mcnkit.experiments.config import Exp1Config
 from mcnkit.experiments.exp1_report import example_figure, markdown
-from mcnkit.experiments.options import Exp1Config, add_exp1_arguments, exp1_config_from_args
 from mcnkit.experiments.rows import EXP1_COLUMNS, Exp1Row, Exp1SampleRow
 from mcnkit.experiments.tables import write_rows
 from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED
 
-__all__ = ["SHIPPED", "Exp1Config", "add_exp1_arguments", "exp1_config_from_args", "run_exp1"]
+__all__ = ["SHIPPED", "Exp1Config", "run_exp1"]
 
 SHIPPED = (
     ("(A) pix2pix", "pix2pix-houseexpo", "houseexpo"),
@@ -66,7 +66,7 @@ def _example_samples(test: PairSet, nets: dict[str, CompletionNet], k: int, n: i
 
 
 SAMPLE_K = 8
-"""Samples per test map for the sampled table (issue 15's protocol)."""
+"""Samples per test map for the sampled table."""
 
 
 def _sample_row(label: str, train_domain: str, test_domain: str, net: CompletionNet, test: PairSet, k: int, seed: int

@@ -57,10 +57,10 @@ from mcnkit.experiments.common import (
     model_label,
     per_map_scores,
 )
+from mcnkit.experiments.config import Exp2Config
 from mcnkit.experiments.exp2_figures import curve_figure, example_figure
 from mcnkit.experiments.exp2_report import markdown
 from mcnkit.experiments.houses import CURVE_FRACTIONS, HouseRun, run_house
-from mcnkit.experiments.options import Exp2Config, add_exp2_arguments, exp2_config_from_args
 from mcnkit.experiments.rows import (
     EXP2_COLUMNS,
     FILLS,
@@ -77,7 +77,7 @@ from mcnkit.experiments.targets import Check, check_targets
 from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
-__all__ = ["Exp2Config", "Exp2Results", "add_exp2_arguments", "exp2_config_from_args", "run_exp2"]
+__all__ = ["Exp2Config", "Exp2Results", "run_exp2"]
 
 F32 = NDArray[np.float32]
 

@@ -11,8 +11,8 @@ from mcnkit.experiments.rows import FILLS, ITERATIONS, NO_VARIANT, Exp2Row, mean
 from mcnkit.experiments.targets import find_row, target_models
 
 if TYPE_CHECKING:
+    from mcnkit.experiments.config import Exp2Config
     from mcnkit.experiments.exp2 import Exp2Results
-    from mcnkit.experiments.options import Exp2Config
 
 __all__ = ["markdown"]
 

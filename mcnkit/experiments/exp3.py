@@ -50,8 +50,8 @@ from mcnkit.experiments.common import (
     per_map_scores,
     run_slam,
 )
+from mcnkit.experiments.config import Exp3Config
 from mcnkit.experiments.exp3_report import PointWindows, markdown, overview_figure, windows_figure
-from mcnkit.experiments.options import Exp3Config, add_exp3_arguments, exp3_config_from_args
 from mcnkit.experiments.rows import FILLS, NO_VARIANT, SLAM_ALONE, Exp3Row, Exp3Summary, LogInfo, mean_variant
 from mcnkit.experiments.tables import write_rows
 from mcnkit.grid import pool_to_window
@@ -59,7 +59,7 @@ from mcnkit.locations import shared_data_dir
 from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, Frame
 
-__all__ = ["Exp3Config", "add_exp3_arguments", "default_logs", "exp3_config_from_args", "run_exp3"]
+__all__ = ["Exp3Config", "default_logs", "run_exp3"]
 
 F32 = NDArray[np.float32]
 

@@ -17,7 +17,7 @@ from mcnkit.experiments.rows import Exp3Row, Exp3Summary, LogInfo
 from mcnkit.types import GridSpec, TernaryMap
 
 if TYPE_CHECKING:
-    from mcnkit.experiments.options import Exp3Config
+    from mcnkit.experiments.config import Exp3Config
 
 __all__ = ["PointWindows", "markdown", "overview_figure", "windows_figure"]
 

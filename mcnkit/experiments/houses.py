@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mcnkit.experiments.common import map_at, new_lineage, run_slam
-from mcnkit.experiments.options import Exp2Config
+from mcnkit.experiments.config import Exp2Config
 from mcnkit.grid import pool_to_window
 from mcnkit.types import OCCUPIED, UNKNOWN, GridSpec
 

@@ -131,7 +131,7 @@ UNET_TARGETS: tuple[Target, ...] = (
     AboveFills(_INSIDE, "T-5", "miou_unknown_inside"),
     AboveFills(_ALL_UNKNOWN, "T-5", "miou_unknown"),
 )
-"""The issue's must-show checks on a U-net row."""
+"""The checks a U-net row must pass."""
 TARGETS: dict[str, tuple[Target, ...]] = {"unet": UNET_TARGETS, "unet-explore": UNET_TARGETS}
 """Model name → the targets on its row: the paper's U-net (trained on first-iteration maps) and the one trained on
 the maps of a robot part-way through exploring."""

@@ -112,12 +112,12 @@ class FastSlam:
     def __init__(self, config: SlamConfig, rng: np.random.Generator, lidar: LidarSpec | None = None) -> None:
         self.config = config
         self.rng = rng
-        self._noise = MotionNoise(config.srr, config.srt, config.str_, config.stt)
-        self.noise_scale = NoiseScale(config.motion_noise_window, min_scale=config.motion_noise_min_scale)
+        self._noise = MotionNoise(config.motion.srr, config.motion.srt, config.motion.str_, config.motion.stt)
+        self.noise_scale = NoiseScale(config.motion.noise_window, min_scale=config.motion.noise_min_scale)
         """How much of the motion model's noise this log's odometry needs (``SlamConfig.motion_noise_from_log``)."""
         self._lidar = lidar
         n = config.n_particles
-        self.maps = TiledHitMaps(n, config.resolution_m, config.tile_cells)
+        self.maps = TiledHitMaps(n, config.resolution_m, config.map.tile_cells)
         self.poses = np.zeros((n, 3))
         self.log_weights = np.zeros(n)  # since the last resampling
         self.log_weight_sums = np.zeros(n)  # over the whole ancestry: picks the best particle
@@ -181,8 +181,8 @@ class FastSlam:
         return int(np.argmax(self.log_weight_sums))
 
     def _ranges(self, lidar: LidarSpec) -> tuple[float, float]:
-        max_range = self.config.max_range_m if self.config.max_range_m is not None else lidar.range_max_m - 0.01
-        usable = self.config.max_usable_range_m if self.config.max_usable_range_m is not None else max_range
+        max_range = self.config.matching.max_range_m if self.config.matching.max_range_m is not None else lidar.range_max_m - 0.01
+        usable = self.config.matching.max_usable_range_m if self.config.matching.max_usable_range_m is not None else max_range
         return max_range, min(usable, max_range)
 
     def _beams(self, frame: Frame) -> tuple[F64, F64, F64]:
@@ -191,13 +191,13 @@ class FastSlam:
         lidar = frame.scan.spec
         max_range, usable = self._ranges(lidar)
         end, back = beam_points(frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range,
-                                usable, math.sqrt(2.0) * self.config.resolution_m, self.config.lskip)
+                                usable, math.sqrt(2.0) * self.config.resolution_m, self.config.matching.lskip)
         hits = end
-        if self.config.lskip:
+        if self.config.matching.lskip:
             hits, _ = beam_points(frame.scan.ranges_m, lidar.angles_rad, lidar.base_to_laser.as_array(), max_range,
                                   usable, 0.0)
-        if self.config.match_thin_m > 0 and len(end):
-            keys = np.floor(end / self.config.match_thin_m).astype(np.int64)
+        if self.config.matching.thin_m > 0 and len(end):
+            keys = np.floor(end / self.config.matching.thin_m).astype(np.int64)
             _, first = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
             keep = np.sort(first)
             end, back = np.ascontiguousarray(end[keep]), np.ascontiguousarray(back[keep])
@@ -220,7 +220,7 @@ class FastSlam:
             if frame.odom_known:
                 tracked = self._track(beams, odom, move)
                 self._last_motion = relative(self._scan_online[-1], tracked)
-                if cfg.motion_noise_from_log and cfg.track_every_scan:
+                if cfg.motion.noise_from_log and cfg.matching.track_every_scan:
                     residual = self.noise_scale.add(move, self._last_motion, self._noise)
             else:  # no odometry for this motion: found by scan matching alone, and counted as driven
                 tracked = self._track_unknown_motion(beams, odom)
@@ -228,15 +228,15 @@ class FastSlam:
                 self.n_unknown_motion += 1
             self._linear_m += math.hypot(move[0], move[1])
             self._angular_rad += abs(move[2])
-            if cfg.motion_from_tracking and cfg.track_every_scan:  # the scan-matched motion moves the particles
+            if cfg.motion.from_tracking and cfg.matching.track_every_scan:  # the scan-matched motion moves the particles
                 before, after = self._scan_online[-1], tracked
             else:
                 before, after = self._last_odom, odom
-            noise = (self.noise_scale.noise(self._noise, residual if cfg.motion_noise_step_floor else None)
-                     if cfg.motion_noise_from_log else self._noise)
+            noise = (self.noise_scale.noise(self._noise, residual if cfg.motion.noise_step_floor else None)
+                     if cfg.motion.noise_from_log else self._noise)
             self.poses = sample_motion(self.poses, before, after, noise, self.rng)
         self._last_odom = odom
-        updated = first or self._linear_m >= cfg.linear_update_m or self._angular_rad >= cfg.angular_update_rad
+        updated = first or self._linear_m >= cfg.updates.linear_m or self._angular_rad >= cfg.updates.angular_rad
         resampled = False
         scores = None
         if updated:
@@ -272,7 +272,7 @@ class FastSlam:
         cfg = self.config
         best = self.best_index
         from_update = self._from_update(odom)
-        if not cfg.track_every_scan:
+        if not cfg.matching.track_every_scan:
             return from_update
         # Two starts: the previous scan's tracked pose moved by odometry (close, but may drift where the
         # geometry is degenerate) and gmapping's pose (no drift, but up to an interval of odometry error away).
@@ -280,7 +280,7 @@ class FastSlam:
         # from where odometry put it, it starts from there instead (odometry that is far off).
         from_last = compose(self._scan_online[-1], move)
         end_b, back_b, _ = beams
-        if cfg.wide_search and self._grid is not None:
+        if cfg.wide.search and self._grid is not None:
             found = wide_match(self._grid, from_last, end_b, cfg, motion_std(move, self._noise),
                                math.hypot(move[0], move[1]), abs(float(move[2])))
             if found is not None:  # the scan's best pose on the coarse field: a better start than odometry's
@@ -295,7 +295,7 @@ class FastSlam:
         """The best particle's pose at a scan whose motion the log does not hold: searched wide around where the
         previous scan's motion predicts it (see ``SlamConfig.unknown_motion_window_m``), then hill-climbed."""
         cfg = self.config
-        if not cfg.track_every_scan:
+        if not cfg.matching.track_every_scan:
             return self._from_update(odom)
         velocity = self._last_motion
         start = compose(self._scan_online[-1], velocity)
@@ -312,7 +312,7 @@ class FastSlam:
         scores = None
         grid_before = self._grid  # the best particle's map before this update (None without the wide search)
         if not first:
-            if cfg.motion_from_tracking and cfg.track_every_scan:
+            if cfg.motion.from_tracking and cfg.matching.track_every_scan:
                 delta = relative(self._update_tracked[-1], tracked)
             else:
                 delta = relative(self._update_odom[-1], self._last_odom)
@@ -320,20 +320,20 @@ class FastSlam:
             nominal = compose(self._history[self.n_updates - 1], delta)  # (N, 3) noise-free predictions
             sigma = motion_std(delta, self._noise)
             found = None
-            if cfg.wide_search and self._grid is not None:
+            if cfg.wide.search and self._grid is not None:
                 found = wide_match(self._grid, nominal[best], end_b, cfg, sigma, self._linear_m, self._angular_rad)
-            if cfg.proposal == "improved":
+            if cfg.updates.proposal == "improved":
                 # every particle starts from its own prediction moved like the best one's onto the mode
                 start = nominal if found is None else compose(found[0], relative(nominal[best], nominal))
                 match = match_particles(self.maps, start, end_b, back_b, cfg)
-                cov = (proposal_covariance(self._grid, end_b, match.poses[best], sigma, cfg.proposal_beams)
+                cov = (proposal_covariance(self._grid, end_b, match.poses[best], sigma, cfg.updates.proposal_beams)
                        if self._grid is not None else np.diag(sigma**2))
                 draw = self.rng.multivariate_normal(np.zeros(3), cov, size=cfg.n_particles, method="cholesky")
                 self.poses = match.poses + draw
                 self.poses[:, 2] = (self.poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
                 self.n_wide_jumps += int(found is not None and found[1])
             else:
-                if found is not None and (found[1] or cfg.wide_recentre):
+                if found is not None and (found[1] or cfg.wide.recentre):
                     # the cloud moves so that the best particle's prediction lands on the mode
                     self.poses = compose(found[0], relative(nominal[best], self.poses))
                     self.n_wide_jumps += int(found[1])
@@ -352,7 +352,7 @@ class FastSlam:
             self._history = np.concatenate([self._history, np.zeros_like(self._history)])
         self._history[k] = self.poses
         resampled = False
-        if not first and self.neff < cfg.resample_threshold * cfg.n_particles:
+        if not first and self.neff < cfg.updates.resample_threshold * cfg.n_particles:
             idx = low_variance_resample(weights, float(self.rng.random()))
             self.poses = self.poses[idx]
             self.log_weights = np.zeros(cfg.n_particles)
@@ -374,7 +374,7 @@ class FastSlam:
             self._reanchor(corrected)
         best = self.best_index
         self._update_tracked.append(self.poses[best].copy())
-        if cfg.wide_search:
+        if cfg.wide.search:
             self._grid = tracking_grid(self.maps, best, self.poses[best], cfg)
         return resampled, scores
 
@@ -481,7 +481,7 @@ class FastSlam:
         chunk = 50  # beams of 50 scans at a time: memory stays flat on long logs
         for start in range(0, len(out), chunk):
             scans = [
-                beam_points(r, lidar.angles_rad, laser, max_range, usable, back_m, self.config.lskip)
+                beam_points(r, lidar.angles_rad, laser, max_range, usable, back_m, self.config.matching.lskip)
                 for r in self._scan_ranges[start : start + chunk]
             ]
             out[start : start + chunk] = match_scans_to_map(
@@ -499,7 +499,7 @@ class FastSlam:
         spec, hits, passes = ray_cast_counts(
             laser, np.stack(self._update_ranges), lidar.angles_rad, max_range, usable, self.config.resolution_m
         )
-        return counts_to_grid(spec, hits, passes, self.config.occ_thresh)
+        return counts_to_grid(spec, hits, passes, self.config.map.occ_thresh)
 
     def update_scans(self) -> NDArray[np.int64]:
         """The index (K,) of the scan at which each filter update happened (into :meth:`trajectory`'s poses)."""

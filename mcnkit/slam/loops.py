@@ -98,8 +98,8 @@ class LoopCloser:
         self._pending: list[tuple[int, int, F64, F64, F64]] = []  # unconfirmed matches, + the new node's matched pose
         self.stats = LoopStats()
         self._step_info: list[F64] = []  # per node: its scan match's information (3, 3), in its own frame
-        self._cap = np.array([1.0 / config.loop_sigma_xy_m**2, 1.0 / config.loop_sigma_xy_m**2,
-                              1.0 / config.loop_sigma_rad**2])  # the most any one match is said to pin down
+        self._cap = np.array([1.0 / config.graph.loop_sigma_xy_m**2, 1.0 / config.graph.loop_sigma_xy_m**2,
+                              1.0 / config.graph.loop_sigma_rad**2])  # the most any one match is said to pin down
         self.attempts: list[LoopAttempt] = []
         """Every loop match that was scored, accepted or not (for benchmarks and plots)."""
 
@@ -126,17 +126,17 @@ class LoopCloser:
         step = float(np.hypot(*(lineage[k, :2] - lineage[k - 1, :2]))) if k else 0.0
         self.travelled_m.append((self.travelled_m[-1] if k else 0.0) + step)
         self.points.append(thin_points(points_base, 2 * self.resolution_m).astype(np.float32))
-        weigh = cfg.graph_step_match_info and cfg.loop_closure and k > 0
+        weigh = cfg.graph.step_match_info and cfg.loops.closure and k > 0
         self._step_info.append(self._information(grid, points_base, lineage[k], float(lineage[k, 2]))
                                if weigh and grid is not None else np.zeros((3, 3)))
-        if not cfg.loop_closure or k == 0 or len(self.points[k]) < 10:
+        if not cfg.loops.closure or k == 0 or len(self.points[k]) < 10:
             return None
         found = self._search(k, lineage)
         if found is None:
             return None
         j, z, info = found
         err = edge_errors(lineage, Edges.of([(j, k, z)], np.eye(3)))[0]
-        if float(err @ info @ err) < cfg.loop_solve_chi2:
+        if float(err @ info @ err) < cfg.graph.solve_chi2:
             self._loops.append((j, k, z, info))
             self.stats.accepted += 1
             self.stats.accepted_nodes.append((j, k))
@@ -145,7 +145,7 @@ class LoopCloser:
         # robot consistently (a look-alike place fools one scan far more often than two).
         world = compose(lineage[j], z)
         partner = self._confirming(k, world, lineage)
-        self._pending = [p for p in self._pending if k - p[1] <= cfg.loop_confirm_nodes] + [(j, k, z, info, world)]
+        self._pending = [p for p in self._pending if k - p[1] <= cfg.loops.confirm_nodes] + [(j, k, z, info, world)]
         if partner is None:
             self.stats.unconfirmed += 1
             return None
@@ -160,14 +160,14 @@ class LoopCloser:
         cfg = self.config
         for cand in reversed(self._pending):
             m = cand[1]
-            if k - m > cfg.loop_confirm_nodes or m == k:
+            if k - m > cfg.loops.confirm_nodes or m == k:
                 continue
             moved_matched = relative(cand[4], world)
             moved_filter = relative(lineage[m], lineage[k])
             dist = float(np.hypot(moved_filter[0], moved_filter[1]))
             d_xy = float(np.hypot(*(moved_matched[:2] - moved_filter[:2])))
             d_th = abs((moved_matched[2] - moved_filter[2] + np.pi) % (2 * np.pi) - np.pi)
-            if d_xy <= cfg.loop_confirm_m + 0.05 * dist and d_th <= cfg.loop_confirm_rad:
+            if d_xy <= cfg.loops.confirm_m + 0.05 * dist and d_th <= cfg.loops.confirm_rad:
                 return cand
         return None
 
@@ -175,21 +175,21 @@ class LoopCloser:
 
     def _window(self, path_m: float) -> tuple[float, float]:
         cfg = self.config
-        xy = min(cfg.loop_max_window_m, cfg.loop_window_m + cfg.loop_window_per_m * path_m)
-        rad = min(cfg.loop_max_window_rad, cfg.loop_window_rad + cfg.loop_window_rad_per_m * path_m)
+        xy = min(cfg.loops.max_window_m, cfg.loops.window_m + cfg.loops.window_per_m * path_m)
+        rad = min(cfg.loops.max_window_rad, cfg.loops.window_rad + cfg.loops.window_rad_per_m * path_m)
         return xy, rad
 
     def _search(self, k: int, lineage: F64) -> tuple[int, F64, F64] | None:
         cfg = self.config
         travelled = np.asarray(self.travelled_m)
         path = travelled[k] - travelled
-        old = np.flatnonzero(path[:k] > cfg.loop_min_travel_m)
+        old = np.flatnonzero(path[:k] > cfg.loops.min_travel_m)
         if len(old) == 0:
             return None
         scan = self.points[k].astype(np.float64)
         ranges = np.hypot(scan[:, 0], scan[:, 1])
         # Scans overlap when they are about as far apart as what they see: the scan's median range.
-        reach = float(np.clip(np.median(ranges), cfg.loop_min_reach_m, cfg.loop_max_reach_m))
+        reach = float(np.clip(np.median(ranges), cfg.loops.min_reach_m, cfg.loops.max_reach_m))
         dist = np.hypot(lineage[old, 0] - lineage[k, 0], lineage[old, 1] - lineage[k, 1])
         drift_path = self._graph_distance(k)[old]  # path through the graph: loops already closed shorten it
         windows = np.array([self._window(p)[0] for p in drift_path])
@@ -198,13 +198,13 @@ class LoopCloser:
             return None
         # One try per earlier pass through the area (a run of consecutive candidate nodes), nearest first.
         cand = old[near]
-        runs = np.split(cand, np.flatnonzero(np.diff(cand) > cfg.loop_run_gap) + 1)
+        runs = np.split(cand, np.flatnonzero(np.diff(cand) > cfg.loops.run_gap) + 1)
         nearest = [int(r[np.argmin(dist[near][np.isin(cand, r)])]) for r in runs]
         order = np.argsort([dist[np.flatnonzero(old == j)[0]] for j in nearest])
-        scan = scan[ranges <= cfg.loop_map_radius_m]
+        scan = scan[ranges <= cfg.loops.map_radius_m]
         if len(scan) < 20:
             return None
-        for t in order[: cfg.loop_max_tries]:
+        for t in order[: cfg.loops.max_tries]:
             j = nearest[t]
             drift = float(drift_path[np.flatnonzero(old == j)[0]])
             found = self._try(k, j, lineage, scan, path, travelled, drift)
@@ -218,18 +218,18 @@ class LoopCloser:
         the match, the relative pose from it to node ``k`` and the match's information (what the scan pins down:
         little along a corridor's axis, at most the stated ``loop_sigma_*`` precision in any direction)."""
         cfg = self.config
-        chain = np.flatnonzero((np.abs(travelled - travelled[j]) <= cfg.loop_chain_m) & (path > cfg.loop_min_travel_m))
+        chain = np.flatnonzero((np.abs(travelled - travelled[j]) <= cfg.loops.chain_m) & (path > cfg.loops.min_travel_m))
         world = [compose(lineage[m], np.c_[self.points[m], np.zeros(len(self.points[m]))])[:, :2] for m in chain]
         sensors = np.concatenate([np.repeat(lineage[m, None, :2], len(w), axis=0) for m, w in zip(chain, world, strict=True)])
         pts_map = np.concatenate(world)
         win_xy, win_rad = window if window is not None else self._window(drift_m)
-        keep = np.hypot(pts_map[:, 0] - lineage[k, 0], pts_map[:, 1] - lineage[k, 1]) <= win_xy + cfg.loop_map_radius_m
+        keep = np.hypot(pts_map[:, 0] - lineage[k, 0], pts_map[:, 1] - lineage[k, 1]) <= win_xy + cfg.loops.map_radius_m
         pts_map, sensors = pts_map[keep], sensors[keep]
         if len(pts_map) < 20:
             return None
         self.stats.attempts += 1
-        grid = likelihood_grid(pts_map, self.resolution_m, cfg.loop_sigma_m, win_xy + 1.0)
-        best = match_scan(grid, scan, lineage[k], win_xy, win_rad, min_score=cfg.loop_min_explained)
+        grid = likelihood_grid(pts_map, self.resolution_m, cfg.loops.sigma_m, win_xy + 1.0)
+        best = match_scan(grid, scan, lineage[k], win_xy, win_rad, min_score=cfg.loops.min_explained)
         if best.score <= 0:
             self.stats.rejected_score += 1
             return None
@@ -241,27 +241,27 @@ class LoopCloser:
         margin = 2 * self.resolution_m
         on_xy, on_rad = max(abs(off[0]), abs(off[1])) >= win_xy - margin, abs(off[2]) >= win_rad - math.radians(1.0)
         if on_xy or on_rad:
-            wider = (min(2 * win_xy, cfg.loop_max_window_m) if on_xy else win_xy,
-                     min(2 * win_rad, cfg.loop_max_window_rad) if on_rad else win_rad)
+            wider = (min(2 * win_xy, cfg.loops.max_window_m) if on_xy else win_xy,
+                     min(2 * win_rad, cfg.loops.max_window_rad) if on_rad else win_rad)
             if wider != (win_xy, win_rad):
                 return self._try(k, j, lineage, scan, path, travelled, drift_m, wider)
             self.stats.rejected_border += 1
             return None
         fine = refine_match(grid, scan, best.pose, 2 * self.resolution_m)
-        free = free_space(grid, sensors, pts_map, cfg.loop_free_margin_m)
+        free = free_space(grid, sensors, pts_map, cfg.loops.free_margin_m)
         seen = overlap(grid, free, scan, fine.pose)  # the scan's points that land where the old scans looked
         score = fine.score / max(seen, 1e-9)  # mean likelihood over those points
-        wrong = contradiction(grid, free, scan, fine.pose, math.exp(-0.5 * (cfg.loop_free_margin_m / cfg.loop_sigma_m) ** 2))
+        wrong = contradiction(grid, free, scan, fine.pose, math.exp(-0.5 * (cfg.loops.free_margin_m / cfg.loops.sigma_m) ** 2))
         unique = self._unique(grid, scan, lineage[k], best.pose, best.score, win_xy, win_rad)
         self.attempts.append(LoopAttempt(k, j, score, wrong, relative(lineage[j], fine.pose), seen, fine.score, unique,
                                          win_xy))
-        if fine.score < cfg.loop_min_explained or score < cfg.loop_min_score:
+        if fine.score < cfg.loops.min_explained or score < cfg.loops.min_score:
             self.stats.rejected_score += 1
             return None
         if not unique:
             self.stats.rejected_ambiguous += 1
             return None
-        if wrong > cfg.loop_max_contradiction:
+        if wrong > cfg.loops.max_contradiction:
             self.stats.rejected_contradiction += 1
             return None
         # The match ties scan k to the part of the chain map it overlaps, i.e. to the chain's scans nearest to it:
@@ -276,7 +276,7 @@ class LoopCloser:
         its first node; the curvature is measured in the world frame)."""
         c, s = math.cos(frame_yaw), math.sin(frame_yaw)
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        info_world = match_information(grid, scan, pose, self.config.proposal_beams)
+        info_world = match_information(grid, scan, pose, self.config.updates.proposal_beams)
         return cap_information(rot.T @ info_world @ rot, self._cap)
 
     def _graph_distance(self, k: int) -> F64:
@@ -293,7 +293,7 @@ class LoopCloser:
             lj = np.array([lp[1] for lp in self._loops])
             rows.append(li)
             cols.append(lj)
-            weights.append(np.full(len(li), self.config.loop_edge_length_m))
+            weights.append(np.full(len(li), self.config.loops.edge_length_m))
         g = sparse.coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
         return np.asarray(csgraph.dijkstra(g.tocsr(), directed=False, indices=k))
 
@@ -302,8 +302,8 @@ class LoopCloser:
         """True when no pose farther than ``loop_ambiguity_m`` (in x or y) from the match scores within
         ``loop_ambiguity_ratio`` of it: four boxes beside the match cover the rest of the window."""
         cfg = self.config
-        d = cfg.loop_ambiguity_m
-        bar = score * cfg.loop_ambiguity_ratio
+        d = cfg.loops.ambiguity_m
+        bar = score * cfg.loops.ambiguity_ratio
         ox, oy = pose[0] - center[0], pose[1] - center[1]  # the match as an offset from the centre
         w = win_xy
         boxes = (
@@ -325,12 +325,12 @@ class LoopCloser:
         z = relative(lineage[:-1], lineage[1:])
         z[: len(self._seq_z)] = self._seq_z
         step = np.hypot(z[:, 0], z[:, 1])
-        sxy = cfg.graph_step_sigma_m + cfg.graph_step_sigma_per_m * step
-        sth = cfg.graph_step_sigma_rad + cfg.graph_step_sigma_rad_per_m * step
+        sxy = cfg.graph.step_sigma_m + cfg.graph.step_sigma_per_m * step
+        sth = cfg.graph.step_sigma_rad + cfg.graph.step_sigma_rad_per_m * step
         info = np.zeros((k - 1, 3, 3))
         info[:, 0, 0] = info[:, 1, 1] = 1.0 / sxy**2
         info[:, 2, 2] = 1.0 / sth**2
-        if self.config.graph_step_match_info:
+        if self.config.graph.step_match_info:
             body = np.array(self._step_info[1:k])  # (k-1, 3, 3): node m's match, m = 1..k-1
             c, s = np.cos(z[:, 2]), np.sin(z[:, 2])
             rot = np.zeros((k - 1, 3, 3))
@@ -349,20 +349,20 @@ class LoopCloser:
         k = len(lineage) - 1
         while True:
             edges = self._edges(lineage)
-            solved = optimize(lineage, edges, iterations=10, huber=self.config.loop_huber, tolerance=1e-4)
+            solved = optimize(lineage, edges, iterations=10, huber=self.config.graph.loop_huber, tolerance=1e-4)
             self.stats.optimizations += 1
             n_seq = k
             err = edge_errors(solved, edges)[n_seq:]
             chi2 = np.einsum("na,nab,nb->n", err, edges.info[n_seq:], err)
             worst = int(np.argmax(chi2))
-            if chi2[worst] <= self.config.loop_max_chi2:
+            if chi2[worst] <= self.config.graph.max_chi2:
                 break
             self._loops.pop(worst)
             self.stats.rejected_outlier += 1
             if not self._loops or self._loops[-1][1] != k:  # the new match itself was the outlier
                 return None
         for lp in self._loops[-n_new:]:
-            if lp[1] >= k - self.config.loop_confirm_nodes:
+            if lp[1] >= k - self.config.loops.confirm_nodes:
                 self.stats.accepted += 1
                 self.stats.accepted_nodes.append((lp[0], lp[1]))
         self._seq_z = relative(lineage[:-1], lineage[1:]) if len(self._seq_z) == 0 else np.concatenate(

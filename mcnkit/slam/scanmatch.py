@@ -320,7 +320,7 @@ def match_particles(
     rows of one array instead of going through the tile tables.  End points outside the window fall back to the tiles, so results do not depend on it.
     """
     poses = np.ascontiguousarray(poses, dtype=np.float64)
-    use_window = len(end_xy) > 0 and not cfg.free_check and cfg.kernel_size == 1
+    use_window = len(end_xy) > 0 and not cfg.matching.free_check and cfg.matching.kernel_size == 1
     reach_tiles = max(1, round(reach_m / (maps.resolution_m * maps.tile_cells)))
     win = window(end_points(poses, end_xy), maps.resolution_m, maps.shift, reach_tiles) if use_window else no_window()
     out, scores, logliks = _match_all(
@@ -331,14 +331,14 @@ def match_particles(
         _beams(end_xy, back_xy),
         False,
         maps.resolution_m,
-        cfg.kernel_size,
-        cfg.free_check,
-        cfg.sigma_m2,
-        cfg.lsigma_m2,
-        cfg.lstep_m,
-        cfg.astep_rad,
-        cfg.iterations,
-        cfg.minimum_score,
+        cfg.matching.kernel_size,
+        cfg.matching.free_check,
+        cfg.matching.sigma_m2,
+        cfg.matching.lsigma_m2,
+        cfg.matching.lstep_m,
+        cfg.matching.astep_rad,
+        cfg.matching.iterations,
+        cfg.matching.minimum_score,
     )
     return MatchResult(out, scores, logliks)
 
@@ -359,10 +359,10 @@ def score_poses(
             t,
             beams,
             maps.resolution_m,
-            cfg.kernel_size,
-            cfg.free_check,
-            cfg.sigma_m2,
-            cfg.lsigma_m2,
+            cfg.matching.kernel_size,
+            cfg.matching.free_check,
+            cfg.matching.sigma_m2,
+            cfg.matching.lsigma_m2,
         )
     return scores, logliks
 
@@ -381,7 +381,7 @@ def match_scans_to_map(
     Scans are processed ``chunk`` at a time, each chunk with one dense window around its end points.
     """
     out = np.array(poses, dtype=np.float64)
-    use_window = cfg.kernel_size == 1 and not cfg.free_check
+    use_window = cfg.matching.kernel_size == 1 and not cfg.matching.free_check
     args = _args(maps)
     who = np.array([particle], dtype=np.int64)
     for start in range(0, len(scans), chunk):
@@ -402,14 +402,14 @@ def match_scans_to_map(
                 _beams(*scans[k]),
                 True,
                 maps.resolution_m,
-                cfg.kernel_size,
-                cfg.free_check,
-                cfg.sigma_m2,
-                cfg.lsigma_m2,
-                cfg.lstep_m,
-                cfg.astep_rad,
-                cfg.iterations,
-                cfg.minimum_score,
+                cfg.matching.kernel_size,
+                cfg.matching.free_check,
+                cfg.matching.sigma_m2,
+                cfg.matching.lsigma_m2,
+                cfg.matching.lstep_m,
+                cfg.matching.astep_rad,
+                cfg.matching.iterations,
+                cfg.matching.minimum_score,
             )
             out[k] = matched[0]
     return out

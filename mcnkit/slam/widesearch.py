@@ -36,10 +36,10 @@ F64 = NDArray[np.float64]
 
 def wide_window(config: SlamConfig, step_m: float, turn_rad: float) -> tuple[float, float]:
     """The search window (± metres, ± radians) after an odometry step of ``step_m`` and ``turn_rad``."""
-    xy = min(config.wide_max_window_m, config.wide_window_m + config.wide_window_per_m * step_m)
+    xy = min(config.wide.max_window_m, config.wide.window_m + config.wide.window_per_m * step_m)
     rad = min(
-        config.wide_max_window_rad,
-        config.wide_window_rad + config.wide_window_rad_per_m * step_m + config.wide_window_rad_per_rad * turn_rad,
+        config.wide.max_window_rad,
+        config.wide.window_rad + config.wide.window_rad_per_m * step_m + config.wide.window_rad_per_rad * turn_rad,
     )
     return xy, rad
 
@@ -47,19 +47,19 @@ def wide_window(config: SlamConfig, step_m: float, turn_rad: float) -> tuple[flo
 def tracking_grid(maps: TiledHitMaps, particle: int, center: F64, config: SlamConfig) -> LikelihoodGrid | None:
     """The coarse likelihood field of a particle's map around ``center`` (3,), for the wide searches until the
     next update (the maps change only at updates); None while the map holds too few hits."""
-    reach = config.loop_map_radius_m + config.wide_max_window_m + 2.0
+    reach = config.loops.map_radius_m + config.wide.max_window_m + 2.0
     x, y = float(center[0]), float(center[1])
     pts = maps.hit_points(particle, x - reach, y - reach, x + reach, y + reach)
     if len(pts) < 20:
         return None
-    return likelihood_grid(pts, config.wide_resolution_m, config.wide_sigma_m, config.wide_resolution_m, depth=5)
+    return likelihood_grid(pts, config.wide.resolution_m, config.wide.sigma_m, config.wide.resolution_m, depth=5)
 
 
 def _search_points(points_base: F64, cell_m: float, config: SlamConfig) -> F64 | None:
     """The scan's hit points (M, 2) the wide searches use: one per field cell, within the local map's radius;
     None when fewer than 20 are left (too little to place the scan by)."""
     scan = thin_points(points_base, cell_m)
-    scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loop_map_radius_m]
+    scan = scan[np.hypot(scan[:, 0], scan[:, 1]) <= config.loops.map_radius_m]
     return scan if len(scan) >= 20 else None
 
 
@@ -83,11 +83,11 @@ def wide_match(
     near = match_scan(grid, scan, nominal, near_xy, near_rad)
     if near.score <= 0:
         return None
-    if near.score < config.wide_max_near_score:  # the prediction cannot explain the scan: look wider
-        wide = match_scan(grid, scan, nominal, win_xy, win_rad, min_score=near.score / config.wide_jump_ratio)
-        if wide.score > 0 and wide.score >= config.wide_min_score:
+    if near.score < config.wide.max_near_score:  # the prediction cannot explain the scan: look wider
+        wide = match_scan(grid, scan, nominal, win_xy, win_rad, min_score=near.score / config.wide.jump_ratio)
+        if wide.score > 0 and wide.score >= config.wide.min_score:
             return wide.pose, True
-    if near.score < config.wide_min_score:
+    if near.score < config.wide.min_score:
         return None
     return near.pose, False
 
@@ -107,8 +107,8 @@ def unknown_motion_match(grid: LikelihoodGrid, predicted: F64, velocity: F64, po
         return None
     near_xy, near_rad = wide_window(config, math.hypot(velocity[0], velocity[1]), abs(float(velocity[2])))
     best = match_scan(grid, scan, predicted, near_xy, near_rad)
-    if best.score < config.wide_max_near_score:  # that motion explains little of the scan: look everywhere
-        wide = match_scan(grid, scan, predicted, config.unknown_motion_window_m, config.unknown_motion_window_rad,
-                          min_score=best.score / config.wide_jump_ratio)
+    if best.score < config.wide.max_near_score:  # that motion explains little of the scan: look everywhere
+        wide = match_scan(grid, scan, predicted, config.motion.unknown_window_m, config.motion.unknown_window_rad,
+                          min_score=best.score / config.wide.jump_ratio)
         best = wide if wide.score > 0 else best
-    return best.pose if best.score >= config.wide_min_score else None
+    return best.pose if best.score >= config.wide.min_score else None

@@ -64,7 +64,9 @@ class SlamStepper:
         """gmapping's defaults with the chosen particle count and the odometry noise scaled."""
         base = SlamConfig(n_particles=self.particles)
         k = self.noise_scale
-        return dataclasses.replace(base, srr=base.srr * k, srt=base.srt * k, str_=base.str_ * k, stt=base.stt * k)
+        m = base.motion
+        return dataclasses.replace(base, motion=dataclasses.replace(m, srr=m.srr * k, srt=m.srt * k, str_=m.str_ * k,
+                                                                  stt=m.stt * k))
 
     def reset(self) -> None:
         """A new filter and a new recording (the old file is replaced)."""

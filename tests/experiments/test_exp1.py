@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
+from mcnkit.experiments.config import Exp1Config
 from mcnkit.experiments.exp1 import SAMPLE_K, run_exp1
-from mcnkit.experiments.options import Exp1Config
 from mcnkit.experiments.rows import Exp1Row, Exp1SampleRow
 from mcnkit.experiments.tables import read_rows
 

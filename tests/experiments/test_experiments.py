@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import csv
 from pathlib import Path
 
@@ -10,18 +9,11 @@ import numpy as np
 import pytest
 import torch
 
+from mcnkit.app.commands.experiment import experiment_config
+from mcnkit.app.main import build_parser
 from mcnkit.completion.checkpoint import save_checkpoint
 from mcnkit.completion.nets import UNet, UNetConfig
-from mcnkit.experiments import (
-    Exp2Config,
-    Exp3Config,
-    add_exp2_arguments,
-    add_exp3_arguments,
-    exp2_config_from_args,
-    exp3_config_from_args,
-    run_exp2,
-    run_exp3,
-)
+from mcnkit.experiments import Exp2Config, Exp3Config, run_exp2, run_exp3
 from mcnkit.experiments.common import aggregate, map_at, per_map_scores, run_slam
 from mcnkit.experiments.rows import EXP2_COLUMNS, Exp2Row, Exp3Row, PerMapRow
 from mcnkit.experiments.tables import columns, read_rows
@@ -152,11 +144,11 @@ def test_exp3_converts_a_carmen_log(tmp_path: Path, tiny_net: str, shared_data: 
 
 
 def test_arguments_build_the_configs() -> None:
-    a = add_exp2_arguments(argparse.ArgumentParser()).parse_args(["--out", "x", "--n-maps", "50", "--samples", "3"])
-    c2 = exp2_config_from_args(a)
+    c2 = experiment_config(build_parser("experiment").parse_args(["experiment", "exp2", "--out", "x", "--n-maps", "50",
+                                                                   "--samples", "3"]))
     assert (c2.out_dir, c2.n_maps, c2.samples, c2.models) == ("x", 50, 3, ("pix2pix", "unet", "unet-explore"))
-    b = add_exp3_arguments(argparse.ArgumentParser()).parse_args(["--out", "y", "--points", "0.2", "0.8"])
-    c3 = exp3_config_from_args(b)
+    c3 = experiment_config(build_parser("experiment").parse_args(["experiment", "exp3", "--out", "y", "--points", "0.2",
+                                                                   "0.8"]))
     assert (c3.out_dir, c3.points, c3.logs) == ("y", (0.2, 0.8), ())
     with pytest.raises(ValueError):
         Exp3Config(points=(1.5,))

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mcnkit.experiments.config import Exp2Config
 from mcnkit.experiments.houses import CACHE_VERSION, HouseRun, RunCacheError, cache_key, cache_path, run_house
-from mcnkit.experiments.options import Exp2Config
 from mcnkit.types import GridSpec
 
 

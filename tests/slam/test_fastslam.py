@@ -11,6 +11,7 @@ import pytest
 
 from mcnkit.geometry import compose, relative
 from mcnkit.slam import FastSlam, SlamConfig
+from mcnkit.slam.config import LoopsConfig, MotionConfig, WideConfig
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan
 
 LIDAR = LidarSpec(-np.pi / 2, np.pi / 180, 181, 0.05, 10.0)
@@ -180,7 +181,7 @@ def test_odometry_that_says_forward_while_the_robot_backs_up_is_caught_by_the_wi
               for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
     errors = {}
     for wide in (True, False):
-        slam = FastSlam(SlamConfig(n_particles=10, wide_search=wide, loop_closure=False), np.random.default_rng(0))
+        slam = FastSlam(SlamConfig(n_particles=10, wide=WideConfig(search=wide), loops=LoopsConfig(closure=False)), np.random.default_rng(0))
         for f in frames:
             slam.step(f)
         est = slam.trajectory().poses
@@ -208,7 +209,7 @@ def _turn_without_odometry() -> tuple[list[np.ndarray], list[Frame], float, int]
 def test_motion_the_log_does_not_hold_is_found_by_scan_matching() -> None:
     # Seattle's corrected log drops the odometry across one 81° turn in place; Örebro's across nearly every step.
     truth, frames, turn, _ = _turn_without_odometry()
-    slam = FastSlam(SlamConfig(n_particles=10, loop_closure=False), np.random.default_rng(0))
+    slam = FastSlam(SlamConfig(n_particles=10, loops=LoopsConfig(closure=False)), np.random.default_rng(0))
     for f in frames:
         slam.step(f)
     est = slam.trajectory().poses
@@ -216,7 +217,7 @@ def test_motion_the_log_does_not_hold_is_found_by_scan_matching() -> None:
     assert np.degrees(abs(np.angle(np.exp(1j * (est[-1, 2] - turn))))) < 2.0  # the 70° turn was found
     assert np.hypot(*(est[-1, :2] - truth[-1][:2])) < 0.15
     # read as "no motion", the same frames leave the robot facing east while it drives north-east
-    blind = FastSlam(SlamConfig(n_particles=10, loop_closure=False), np.random.default_rng(0))
+    blind = FastSlam(SlamConfig(n_particles=10, loops=LoopsConfig(closure=False)), np.random.default_rng(0))
     for f in frames:
         blind.step(Frame(f.stamp_ns, f.scan, f.odom))
     assert np.degrees(abs(np.angle(np.exp(1j * (blind.trajectory().poses[-1, 2] - turn))))) > 20.0
@@ -228,7 +229,7 @@ def test_motion_the_log_does_not_hold_is_predicted_from_the_robots_last_motion_n
     # once sent Örebro's particles off by kilometres, each bogus step feeding the next.  Here the online pose of
     # the scan before the last known one is moved 3 m, as such a switch would; the turn is found all the same.
     truth, frames, turn, gap = _turn_without_odometry()
-    slam = FastSlam(SlamConfig(n_particles=10, loop_closure=False), np.random.default_rng(0))
+    slam = FastSlam(SlamConfig(n_particles=10, loops=LoopsConfig(closure=False)), np.random.default_rng(0))
     for f in frames[:gap]:
         slam.step(f)
     slam._scan_online[-2] = slam._scan_online[-2] + np.array([-3.0, 1.0, 0.0])
@@ -249,7 +250,7 @@ def test_a_sparse_log_gets_the_particle_spread_its_odometry_needs_not_gmappings_
               for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
     spread, worst = {}, {}
     for measured in (True, False):
-        slam = FastSlam(SlamConfig(n_particles=10, motion_noise_from_log=measured), np.random.default_rng(0))
+        slam = FastSlam(SlamConfig(n_particles=10, motion=MotionConfig(noise_from_log=measured)), np.random.default_rng(0))
         headings = [np.degrees(np.std(np.unwrap(slam.step(f).poses[:, 2]))) for f in frames]  # per-step spread
         spread[measured] = float(np.mean(headings[len(frames) // 2:]))
         est = slam.trajectory().poses

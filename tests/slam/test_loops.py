@@ -5,6 +5,7 @@ import pytest
 
 from mcnkit.geometry import relative
 from mcnkit.slam import SlamConfig
+from mcnkit.slam.config import GraphConfig
 from mcnkit.slam.loops import LoopCloser
 from mcnkit.slam.posegraph import optimize
 
@@ -70,7 +71,7 @@ def test_a_loop_match_the_estimate_already_meets_within_loop_solve_chi2_is_kept_
     lineage = truth + np.linspace(0.0, 1.0, len(truth))[:, None] * np.array([0.1, -0.06, 0.0])
     outcomes = {}
     for bar in (1.0, 1e6):
-        cfg = SlamConfig(loop_solve_chi2=bar)
+        cfg = SlamConfig(graph=GraphConfig(solve_chi2=bar))
         closer = LoopCloser(cfg, cfg.resolution_m)
         solved = [closer.add(_seen(room, truth[k]), lineage[: k + 1]) for k in range(len(truth))]
         outcomes[bar] = (closer.stats.accepted, closer.stats.optimizations, any(s is not None for s in solved))
@@ -91,11 +92,11 @@ def test_a_loop_correction_goes_to_the_steps_whose_scans_did_not_pin_the_robot_d
     corridor = (np.arange(1, k) >= 10) & (np.arange(1, k) < 21)  # the steps m-1 -> m, m = 10..20
     lineage = np.c_[np.r_[0.0, np.cumsum(np.where(corridor, 1.04, 1.0))], np.zeros(k), np.zeros(k)]
     cfg0 = SlamConfig()
-    cap = np.array([1 / cfg0.loop_sigma_xy_m**2, 1 / cfg0.loop_sigma_xy_m**2, 1 / cfg0.loop_sigma_rad**2])
+    cap = np.array([1 / cfg0.graph.loop_sigma_xy_m**2, 1 / cfg0.graph.loop_sigma_xy_m**2, 1 / cfg0.graph.loop_sigma_rad**2])
     pinned, along_free = np.diag(cap), np.diag([0.0, cap[1], cap[2]])
     shares = {}
     for weighted in (True, False):
-        cfg = SlamConfig(graph_step_match_info=weighted)
+        cfg = SlamConfig(graph=GraphConfig(step_match_info=weighted))
         closer = LoopCloser(cfg, cfg.resolution_m)
         closer._step_info = [np.zeros((3, 3))] + [along_free if c else pinned for c in corridor]
         closer._loops = [(0, k - 1, relative(truth[0], truth[-1]), np.diag(cap * 100))]

@@ -65,6 +65,7 @@ def test_counts_to_grid_uses_the_occupancy_threshold() -> None:
 
 def test_the_map_clears_space_only_up_to_the_map_range_and_long_returns_mark_no_hit() -> None:
     from mcnkit.slam import SlamConfig, ray_cast_counts
+    from mcnkit.slam.config import MapConfig
     from mcnkit.types import LidarSpec
 
     one_degree = LidarSpec(-np.pi / 2, np.pi / 180, 181, 0.0, 50.0)
@@ -72,7 +73,7 @@ def test_the_map_clears_space_only_up_to_the_map_range_and_long_returns_mark_no_
     cfg = SlamConfig()
     assert cfg.map_range(one_degree) == pytest.approx(4 * 0.05 / (np.pi / 180))  # 11.5 m: beams 4 cells apart
     assert cfg.map_range(half_degree) == pytest.approx(4 * 0.05 / (np.pi / 360))
-    assert SlamConfig(map_range_m=100.0).map_range(one_degree) == pytest.approx(49.99)  # never beyond the scanner
+    assert SlamConfig(map=MapConfig(range_m=100.0)).map_range(one_degree) == pytest.approx(49.99)  # never beyond the scanner
     # one beam along +x hitting a wall at 30 m, mapped with a 10 m map range: free to 10 m, no hit at 30 m
     spec, hits, passes = ray_cast_counts(np.zeros((1, 3)), np.array([[30.0]]), np.zeros(1), 49.99, 10.0, 0.05)
     row, col = spec.world_to_cell(np.array([9.0, 0.01]))

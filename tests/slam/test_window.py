@@ -27,7 +27,7 @@ def test_particles_a_kilometre_apart_are_matched_without_a_window_and_as_precise
     cfg = SlamConfig(n_particles=2)
     room = _room_points()
     far = np.array([1000.0, 500.0])
-    maps = TiledHitMaps(2, cfg.resolution_m, cfg.tile_cells)
+    maps = TiledHitMaps(2, cfg.resolution_m, cfg.map.tile_cells)
     maps.integrate(np.stack([room[:, 0], room[:, 0] + far[0]]), np.stack([room[:, 1], room[:, 1] + far[1]]))
     end, back = _beams(room, cfg.resolution_m)
     offset = np.array([0.08, -0.06, 0.03])  # both particles start equally off their room's centre
@@ -40,6 +40,6 @@ def test_particles_a_kilometre_apart_are_matched_without_a_window_and_as_precise
     np.testing.assert_allclose(together[0], alone[0], atol=1e-9)
     np.testing.assert_allclose(together[1] - [far[0], far[1], 0.0], alone[0], atol=1e-6)
     points = np.array([[0.0, 0.0], far])
-    shift = int(np.log2(cfg.tile_cells))
+    shift = int(np.log2(cfg.map.tile_cells))
     assert window(points, cfg.resolution_m, shift, 1)[0].size == 0  # no window was made
     assert window(points / 100, cfg.resolution_m, shift, 1)[0].size // 2 <= WINDOW_MAX_CELLS

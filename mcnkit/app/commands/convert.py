@@ -3,12 +3,30 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from pathlib import Path
 
-from mcnkit.app.commands.info import add_source_options
+from mcnkit.app.commands.info import SourceOptions
+from mcnkit.app.options import add_options
 from mcnkit.io.content import FORMATS, LogContent
 
-__all__ = ["add_convert_parser"]
+__all__ = ["ConvertOptions", "add_convert_parser"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ConvertOptions(SourceOptions):
+    """``mcnkit convert INPUT OUTPUT [--format F]``."""
+
+    input: Path
+    """any log open_log reads"""
+    output: Path
+    """output file (.bag, .mcap) or folder (ROS2 bag)"""
+    format: str | None = None
+    """output format (default from OUTPUT: .bag → ros1, .mcap → mcap, else ros2-mcap)"""
+    overwrite: bool = False
+    """replace OUTPUT if it exists"""
+    quiet: bool = False
+    """no progress bar"""
 
 
 def _convert(args: argparse.Namespace) -> int:
@@ -39,11 +57,5 @@ def add_convert_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser])
         "write them as LaserScan, Odometry, /tf, /tf_static (+ ground truth). Lossless: read back, the frames "
         "are identical (float32 ranges, nanosecond stamps).",
     )
-    p.add_argument("input", type=Path, help="any log open_log reads")
-    p.add_argument("output", type=Path, help="output file (.bag, .mcap) or folder (ROS2 bag)")
-    p.add_argument("--format", choices=[*FORMATS, "mcap-ros1"],
-                   help="output format (default from OUTPUT: .bag → ros1, .mcap → mcap, else ros2-mcap)")
-    p.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    add_source_options(p)
+    add_options(p, ConvertOptions, positional=("input", "output"), choices={"format": (*FORMATS, "mcap-ros1")})
     p.set_defaults(func=_convert)

@@ -10,18 +10,20 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from mcnkit.app.exits import fail
+from mcnkit.app.options import add_options
 from mcnkit.datasets.houseexpo import HOUSEEXPO_SHA256, default_data_dir, find_houseexpo, install_houseexpo
 
 if TYPE_CHECKING:
     from mcnkit.datasets.pairs import PairSet
 
-__all__ = ["add_data_parser", "cmd_examples", "cmd_install", "cmd_pairs"]
+__all__ = ["ExamplesOptions", "InstallOptions", "PairsOptions", "add_data_parser", "cmd_examples", "cmd_install", "cmd_pairs"]
 
 
 
@@ -137,37 +139,74 @@ def cmd_examples(args: argparse.Namespace) -> int:
     return 0
 
 
+@dataclass(frozen=True, kw_only=True)
+class InstallOptions:
+    """``mcnkit data install houseexpo --from PATH_OR_URL``."""
+
+    dataset: Literal["houseexpo"]
+    """the dataset (houseexpo: HouseExpo floor plans)"""
+    source: str
+    """json.tar.gz path, file:// or http(s):// URL"""
+    sha256: str | None = None
+    """expected digest (default: the published one; '' = skip)"""
+    dest: str | None = None
+    """data directory (default: $MCNKIT_DATA or ./data)"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class PairsOptions:
+    """``mcnkit data pairs --out DIR``."""
+
+    out: str
+    """cache directory"""
+    domain: Literal["houseexpo", "procedural"] = "houseexpo"
+    """houseexpo: Pseudo-SLAM scans of HouseExpo plans (the paper); procedural: generated apartments with
+    HOME'S-style masks"""
+    houseexpo: str | None = None
+    """json.tar.gz or json/ folder (default: the installed one)"""
+    train_list: str | None = None
+    """official train id list (default: next to the archive)"""
+    test_list: str | None = None
+    """official test id list (default: next to the archive)"""
+    train: int = 5000
+    """training pairs"""
+    val: int = 200
+    """validation pairs"""
+    test: int = 100
+    """test pairs"""
+    seed: int = 0
+    """seed of the split shuffle and the scans"""
+    no_progress: bool = False
+    """no progress bar"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ExamplesOptions:
+    """``mcnkit data examples --out FILE.png``."""
+
+    out: str
+    """the PNG file to write"""
+    n: int = 6
+    """examples per domain"""
+    seed: int = 0
+    """seed of the drawn examples"""
+    houseexpo: str | None = None
+    """json.tar.gz or json/ folder (default: the installed one)"""
+    cache: str | None = None
+    """pair cache directory for the HouseExpo examples (default: <data>/cache/examples)"""
+
+
 def add_data_parser(subparsers: argparse._SubParsersAction) -> None:
     """Adds ``mcnkit data install|pairs|examples``."""
     data = subparsers.add_parser("data", help="install datasets, build training pairs, draw example pairs")
     sub = data.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
-
     inst = sub.add_parser("install", help="install a dataset (HouseExpo) from a path or URL, checking its sha256")
-    inst.add_argument("dataset", choices=["houseexpo"], help="the dataset (houseexpo: HouseExpo floor plans)")
-    inst.add_argument("--from", dest="source", required=True, help="json.tar.gz path, file:// or http(s):// URL")
-    inst.add_argument("--sha256", default=None, help=f"expected digest (default {HOUSEEXPO_SHA256[:12]}…; '' = skip)")
-    inst.add_argument("--dest", default=None, help="data directory (default: $MCNKIT_DATA or ./data)")
+    add_options(inst, InstallOptions, positional=("dataset",), flags={"source": "--from"},
+                help={"sha256": f"expected digest (default {HOUSEEXPO_SHA256[:12]}…; '' = skip)"})
     inst.set_defaults(func=cmd_install)
-
     pairs = sub.add_parser("pairs", help="build (or reuse the cached) 64x64 (m_t, m_T) pairs")
-    pairs.add_argument("--out", required=True, help="cache directory")
-    pairs.add_argument("--domain", choices=["houseexpo", "procedural"], default="houseexpo",
-                       help="houseexpo: Pseudo-SLAM scans of HouseExpo plans (the paper); procedural: generated "
-                            "apartments with HOME'S-style masks (default houseexpo)")
-    pairs.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
-    pairs.add_argument("--train-list", help="official train id list (default: next to the archive)")
-    pairs.add_argument("--test-list", help="official test id list (default: next to the archive)")
-    pairs.add_argument("--train", type=int, default=5000, help="training pairs (default 5000)")
-    pairs.add_argument("--val", type=int, default=200, help="validation pairs (default 200)")
-    pairs.add_argument("--test", type=int, default=100, help="test pairs (default 100)")
-    pairs.add_argument("--seed", type=int, default=0, help="seed of the split shuffle and the scans (default 0)")
-    pairs.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_options(pairs, PairsOptions)
     pairs.set_defaults(func=cmd_pairs)
-
     ex = sub.add_parser("examples", help="write a PNG grid of example pairs (m_t, mask, m_T) for both domains")
-    ex.add_argument("--out", required=True, help="PNG file")
-    ex.add_argument("--n", type=int, default=6, help="examples per domain (default 6)")
-    ex.add_argument("--seed", type=int, default=0, help="seed of the drawn examples (default 0)")
-    ex.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
-    ex.add_argument("--cache", help="pair cache directory for the HouseExpo examples (default: <data>/cache/examples)")
+    add_options(ex, ExamplesOptions)
     ex.set_defaults(func=cmd_examples)

@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mcnkit.app.recording import add_recording_flags
+from mcnkit.app.options import add_options
+from mcnkit.app.recording import LIVE_CONST, LiveOptions
 from mcnkit.completion.registry import MODELS
 
 if TYPE_CHECKING:
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
     from mcnkit.mcn import McnSlam
     from mcnkit.sim import SimResult
 
-__all__ = ["DemoResult", "add_demo_parser", "run_demo"]
+__all__ = ["DemoOptions", "DemoResult", "add_demo_parser", "run_demo"]
 
 
 @dataclass(frozen=True)
@@ -193,21 +194,36 @@ Outputs go to recordings/demo/ by default (git ignores it); an earlier run there
 Watch it live: --connect streams to a running Rerun viewer, --serve from a gRPC server on 127.0.0.1."""
 
 
+@dataclass(frozen=True, kw_only=True)
+class DemoOptions(LiveOptions):
+    """``mcnkit demo [--out DIR] [...]``."""
+
+    out: Path = Path("recordings/demo")
+    """output folder (default recordings/demo, which git ignores)"""
+    rrd: Path | None = None
+    """the Rerun recording (default OUT/demo.rrd)"""
+    overwrite: bool = False
+    """replace the outputs of an earlier run"""
+    apartment: int = 3
+    """procedural apartment number"""
+    seed: int = 0
+    """random seed of the robot run and the filter"""
+    particles: int = 30
+    """SLAM particles"""
+    duration_s: float = 120.0
+    """simulated seconds at most"""
+    samples: int = 4
+    """K completions per particle"""
+    ranks: int = 2
+    """R best particles completed"""
+    model: str = "unet"
+    """a shipped model's name or a checkpoint path"""
+
+
 def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit demo``."""
     p = sub.add_parser("demo", help="simulate an apartment, run MCN-SLAM on its log, record it for Rerun (no dataset)",
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", type=Path, default=Path("recordings/demo"),
-                   help="output folder (default recordings/demo, which git ignores)")
-    p.add_argument("--rrd", type=Path, default=None, help="the Rerun recording (default OUT/demo.rrd)")
-    p.add_argument("--overwrite", action="store_true", help="replace the outputs of an earlier run")
-    p.add_argument("--apartment", type=int, default=3, help="procedural apartment number (default 3)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the robot run and the filter")
-    p.add_argument("--particles", type=int, default=30, help="SLAM particles (default 30)")
-    p.add_argument("--duration-s", type=float, default=120.0, help="simulated seconds at most (default 120)")
-    p.add_argument("--samples", type=int, default=4, help="K completions per particle (default 4)")
-    p.add_argument("--ranks", type=int, default=2, help="R best particles completed (default 2)")
-    p.add_argument("--model", default="unet",
-                   help=f"{', '.join(MODELS)} (shipped weights) or a checkpoint path (default unet)")
-    add_recording_flags(p)
+    add_options(p, DemoOptions, const=LIVE_CONST,
+                help={"model": f"{', '.join(MODELS)} (shipped weights) or a checkpoint path (default unet)"})
     p.set_defaults(func=_main)

@@ -9,14 +9,17 @@ import argparse
 import json
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
+
+from mcnkit.app.options import add_options
 
 if TYPE_CHECKING:
     from mcnkit.metrics import Relations
     from mcnkit.types import Trajectory
 
-__all__ = ["add_eval_parser", "run_eval_ate", "run_eval_consistency", "run_eval_groundtruth", "run_eval_relations",
+__all__ = ["AteOptions", "ConsistencyOptions", "GroundTruthOptions", "RelationsOptions", "add_eval_parser", "run_eval_ate", "run_eval_consistency", "run_eval_groundtruth", "run_eval_relations",
            "write_ground_truth"]
 
 
@@ -34,15 +37,78 @@ that repeat.  '--match order' pairs the k-th poses when the stamps carry no time
 one pose per scan of the same log."""
 
 
-def _add_matching_options(p: argparse.ArgumentParser, min_matched: int) -> None:
-    p.add_argument("--tolerance-s", type=float, default=0.005,
-                   help="stamp matching tolerance in seconds (default 0.005)")
-    p.add_argument("--min-fraction", type=float, default=0.5,
-                   help="refuse (exit 2) when less than this share of the reference poses / relations match "
-                        "(default 0.5)")
-    p.add_argument("--min-matched", type=int, default=min_matched,
-                   help=f"refuse (exit 2) when fewer than this many match (default {min_matched})")
-    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+@dataclass(frozen=True, kw_only=True)
+class _Matching:
+    """How a trajectory's poses are matched to the reference, and when a score is refused."""
+
+    tolerance_s: float = 0.005
+    """stamp matching tolerance in seconds"""
+    min_fraction: float = 0.5
+    """refuse (exit 2) when less than this share of the reference poses / relations match"""
+    min_matched: int = 1
+    """refuse (exit 2) when fewer than this many match"""
+    json: bool = False
+    """print JSON instead of text"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RelationsOptions(_Matching):
+    """``mcnkit eval relations TRAJ RELATIONS``."""
+
+    trajectory: Path
+    """estimated trajectory, TUM format"""
+    relations: Path
+    """relations file: t1 t2 x y z roll pitch yaw per line"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class AteOptions(_Matching):
+    """``mcnkit eval ate TRAJ REFERENCE``."""
+
+    min_matched: int = 3
+    """refuse (exit 2) when fewer than this many match"""
+    trajectory: Path
+    """estimated trajectory, TUM format"""
+    reference: Path
+    """reference trajectory, TUM format"""
+    match: Literal["stamp", "order"] = "stamp"
+    """stamp: each reference pose with the estimate pose of the nearest stamp (default); order: the k-th pose of
+    each (the same number of poses, one per scan of the same log)"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ConsistencyOptions:
+    """``mcnkit eval consistency LOG TRAJ...``."""
+
+    log: Path
+    """the log the trajectories were made from (CARMEN, .bag, rosbag2 folder, .mcap)"""
+    trajectories: tuple[Path, ...]
+    """trajectories, TUM format, one pose per scan of the log"""
+    match: Literal["stamp", "order"] = "stamp"
+    """stamp: each scan with the pose of its stamp (default); order: the k-th pose with the k-th scan"""
+    tolerance_s: float = 0.005
+    """stamp matching tolerance in seconds"""
+    plot: Path | None = None
+    """also draw where each trajectory disagrees with the scans into this PNG: its scans at its poses, the
+    relations coloured by its error on them (dots: sequential, lines: revisits)"""
+    overwrite: bool = False
+    """replace the --plot file if it exists"""
+    no_progress: bool = False
+    """no progress bar"""
+    json: bool = False
+    """print one JSON object instead of text"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class GroundTruthOptions:
+    """``mcnkit eval groundtruth LOG OUT.tum``."""
+
+    log: Path
+    """a log (CARMEN, .bag, rosbag2 folder, .mcap)"""
+    output: Path
+    """the TUM file to write"""
+    overwrite: bool = False
+    """replace OUTPUT if it exists"""
 
 
 def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -55,20 +121,13 @@ def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
                        description="The relations error of a trajectory: for each ground-truth relation (the robot's "
                        "motion between the scans stamped t1 and t2), how far the trajectory's motion between "
                        "its poses nearest those stamps is off, in translation and rotation.")
-    r.add_argument("trajectory", type=Path, help="estimated trajectory, TUM format")
-    r.add_argument("relations", type=Path, help="relations file: t1 t2 x y z roll pitch yaw per line")
-    _add_matching_options(r, 1)
+    add_options(r, RelationsOptions, positional=("trajectory", "relations"))
     r.set_defaults(func=run_eval_relations)
     a = sub.add_parser("ate", help="ATE (after rigid 2-D alignment) and RPE against a reference trajectory",
                        description="ATE: RMSE of the positions after the least-squares rigid 2-D alignment of the "
                        "estimate onto the reference; RPE: the error of the motion between consecutive matched "
                        "poses.  Write a log's reference with 'mcnkit eval groundtruth LOG OUT.tum'.")
-    a.add_argument("trajectory", type=Path, help="estimated trajectory, TUM format")
-    a.add_argument("reference", type=Path, help="reference trajectory, TUM format")
-    a.add_argument("--match", choices=["stamp", "order"], default="stamp",
-                   help="stamp: each reference pose with the estimate pose of the nearest stamp (default); "
-                        "order: the k-th pose of each (the same number of poses, one per scan of the same log)")
-    _add_matching_options(a, 3)
+    add_options(a, AteOptions, positional=("trajectory", "reference"))
     a.set_defaults(func=run_eval_ate)
     c = sub.add_parser("consistency", help="how well trajectories agree with the log's own scans (no reference needed)",
                        description="Score trajectories of one log on relations its own scans measure "
@@ -81,25 +140,13 @@ def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
                        "(e.g. two runs, or a run and the log's corrected poses from 'mcnkit eval groundtruth').  On "
                        "MIT CSAIL these relations miss the Kümmerle et al. ground truth by 0.026 m / 0.32 deg on "
                        "average (benchmarks/results/reference_consistency.md).")
-    c.add_argument("log", type=Path, help="the log the trajectories were made from (CARMEN, .bag, rosbag2 folder, .mcap)")
-    c.add_argument("trajectories", type=Path, nargs="+", help="trajectories, TUM format, one pose per scan of the log")
-    c.add_argument("--match", choices=["stamp", "order"], default="stamp",
-                   help="stamp: each scan with the pose of its stamp (default); order: the k-th pose with the k-th scan")
-    c.add_argument("--tolerance-s", type=float, default=0.005, help="stamp matching tolerance in seconds (default 0.005)")
-    c.add_argument("--plot", type=Path, metavar="PNG",
-                   help="also draw where each trajectory disagrees with the scans: its scans at its poses, the "
-                        "relations coloured by its error on them (dots: sequential, lines: revisits)")
-    c.add_argument("--overwrite", action="store_true", help="replace the --plot file if it exists")
-    c.add_argument("--no-progress", action="store_true", help="no progress bar")
-    c.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    add_options(c, ConsistencyOptions, positional=("log", "trajectories"))
     c.set_defaults(func=run_eval_consistency)
     g = sub.add_parser("groundtruth", help="write the ground-truth trajectory a log carries as TUM",
                        description="Write the reference trajectory of any log mcnkit reads as TUM (one pose per "
                        "line, the log's stamps): a Radish corrected CARMEN log's corrected poses, a bag's "
                        "ground-truth topic, a simulated log's true path.")
-    g.add_argument("log", type=Path, help="a log (CARMEN, .bag, rosbag2 folder, .mcap)")
-    g.add_argument("output", type=Path, help="the TUM file to write")
-    g.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
+    add_options(g, GroundTruthOptions, positional=("log", "output"))
     g.set_defaults(func=run_eval_groundtruth)
     return p
 

@@ -4,17 +4,33 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
+from mcnkit.app.options import add_options
 from mcnkit.io.info import describe, print_info
 
-__all__ = ["add_info_parser", "add_source_options"]
+__all__ = ["InfoOptions", "SourceOptions", "add_info_parser"]
 
 
-def add_source_options(p: argparse.ArgumentParser) -> None:
-    """Adds ``--scan-topic`` and ``--odom`` (which streams of a log to read)."""
-    p.add_argument("--scan-topic", help="LaserScan topic to use (default: /scan, else the busiest LaserScan topic)")
-    p.add_argument("--odom", help="Odometry topic, or tf:ODOM_FRAME->BASE_FRAME (default: detected)")
+@dataclass(frozen=True, kw_only=True)
+class SourceOptions:
+    """Which streams of a log to read."""
+
+    scan_topic: str | None = None
+    """LaserScan topic to use (default: /scan, else the busiest LaserScan topic)"""
+    odom: str | None = None
+    """Odometry topic, or tf:ODOM_FRAME->BASE_FRAME (default: detected)"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class InfoOptions(SourceOptions):
+    """``mcnkit info LOG [--json]``."""
+
+    log: Path
+    """a log file or a ROS2 bag folder"""
+    json: bool = False
+    """print JSON instead of text"""
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -37,7 +53,5 @@ def add_info_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "sources, and the scanner (beams, field of view, range). Reads ROS1 .bag, ROS2 bag folders "
         "(sqlite3/mcap), .mcap (ROS1 or ROS2 profile) and CARMEN/DP-SLAM logs.",
     )
-    p.add_argument("log", type=Path, help="a log file or a ROS2 bag folder")
-    add_source_options(p)
-    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    add_options(p, InfoOptions, positional=("log",))
     p.set_defaults(func=_info)

@@ -22,15 +22,17 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
-from mcnkit.app.recording import add_recording_flags
-from mcnkit.app.runconfig import add_dataclass_flags
+from mcnkit.app.options import add_options
+from mcnkit.app.recording import LIVE_CONST, LiveOptions
 from mcnkit.completion.registry import MODELS
 from mcnkit.mcn_config import McnConfig
 from mcnkit.slam.config import SlamConfig
 
-__all__ = ["add_run_parser", "cmd_run"]
+__all__ = ["RunOptions", "add_run_parser", "cmd_run"]
 
 
 _RUN_MAP_EVERY = 5
@@ -57,8 +59,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         file = config_file(args)
         slam_config, seed = resolve_slam_config(args, file)
-        short = {"samples": args.samples, "ranks": args.ranks, "window": args.window, "window_m": args.window_m,
-                 "every": args.every, "full_map_every": args.map_every}
+        short = {name: (f"--{flag}", getattr(args, flag.replace("-", "_"))) for name, flag in (
+            ("samples", "samples"), ("ranks", "ranks"), ("window", "window"), ("window_m", "window-m"),
+            ("every", "every"), ("full_map_every", "map-every"))}
         config = resolve_section(McnConfig, args, "mcn", file, short, defaults={"full_map_every": _RUN_MAP_EVERY})
         recording = resolve_section(RecordingConfig, args, "recording", file)
         model_name = args.model if args.model is not None else file.get("model", "unet-explore")
@@ -116,11 +119,59 @@ def cmd_run(args: argparse.Namespace) -> int:
             serve_on(logger, recording.linger_s if summary.scans else 0, SIGNALS)
 
 
+@dataclass(frozen=True, kw_only=True)
+class RunOptions(LiveOptions):
+    """``mcnkit run LOG [--rrd FILE] [--out DIR] [...]``: the sections are ``slam``, ``mcn`` and ``recording``."""
+
+    log: Path
+    """a log open_log reads (CARMEN, .bag, rosbag2 folder, .mcap)"""
+    rrd: Path | None = None
+    """record every step to this Rerun file"""
+    out: Path | None = None
+    """also write trajectory.tum, map.pgm/.yaml/.png, completion.png, summary.json here"""
+    overwrite: bool = False
+    """replace existing outputs (--rrd, --out files)"""
+    model: str | None = None
+    """completion network: a shipped model's name or a checkpoint path (default: the config file's, else
+    unet-explore)"""
+    config: Path | None = None
+    """settings file: TOML ([slam], [slam.SECTION], [mcn] and [recording] tables, seed = N, model = NAME) or a
+    run's summary.json (re-runs it); flags given here override it"""
+    samples: int | None = None
+    """K completions per particle (default 4; = --mcn.samples)"""
+    ranks: int | None = None
+    """R best particles completed (default 3; = --mcn.ranks)"""
+    particles: int | None = None
+    """SLAM particles (default 30; = --slam.n-particles)"""
+    resolution: float | None = None
+    """map cell size in metres (default 0.05; = --slam.resolution-m)"""
+    window: Literal["map", "robot"] | None = None
+    """network input: the whole map shrunk to 64x64 (paper; the default) or a robot-centred square
+    (= --mcn.window)"""
+    window_m: float | None = None
+    """side of the robot-centred window (default 12.8 m; = --mcn.window-m)"""
+    every: int | None = None
+    """complete at every N-th filter update (default 1: each; = --mcn.every)"""
+    map_every: int | None = None
+    """record the best full-resolution map every N completions (default 5; = --mcn.full-map-every; not computed
+    without a recording)"""
+    seed: int | None = None
+    """seed of the filter and of the samples (default 0, or the config file's)"""
+    threads: int = 1
+    """torch CPU threads"""
+    no_progress: bool = False
+    """no progress bar"""
+    slam: SlamConfig = field(default_factory=SlamConfig)
+    """The filter's settings."""
+    mcn: McnConfig = field(default_factory=McnConfig)
+    """How the maps are completed."""
+
+
 def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Registers ``mcnkit run``."""
     p = sub.add_parser("run", help="MCN-SLAM on a robot log: SLAM + sampled map completions, recorded to Rerun",
                        usage="mcnkit run LOG [--rrd FILE] [--out DIR] [--model NAME|PATH] [--config FILE] "
-                             "[--slam.FIELD|--mcn.FIELD|--recording.FIELD VALUE ...] [options]",
+                             "[--slam.SECTION.FIELD|--mcn.FIELD|--recording.FIELD VALUE ...] [options]",
                        description="MCN-SLAM on a robot log.  At every filter update the R best particles' maps are "
                        "completed K times by the network (one forward pass); with --rrd the recording gets the "
                        "particles, the best map and its unknown mask, each rank's map, its K samples and their "
@@ -131,42 +182,11 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
                        "Outputs never replace an input, and replace existing files only with --overwrite.  "
                        "--connect streams every step live to a running Rerun viewer, --serve from a gRPC server of "
                        "its own on 127.0.0.1 (both also beside --rrd).  Every SlamConfig, McnConfig and "
-                       "RecordingConfig field is a flag (--slam.FIELD, --mcn.FIELD, --recording.FIELD); summary.json "
-                       "and the recording (/config) hold the whole configuration, and --config OUT/summary.json "
-                       "re-runs it.")
-    p.add_argument("log", type=Path, help="a log open_log reads (CARMEN, .bag, rosbag2 folder, .mcap)")
-    p.add_argument("--rrd", type=Path, default=None, help="record every step to this Rerun file")
-    p.add_argument("--out", type=Path, default=None,
-                   help="also write trajectory.tum, map.pgm/.yaml/.png, completion.png, summary.json here")
-    p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--rrd, --out files)")
-    p.add_argument("--model", default=None,
-                   help=f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path "
-                        "(default: the config file's, else unet-explore: the U-net trained on maps part-way through "
-                        "an exploration, which leaves the outside of a building occupied; unet is the paper's, "
-                        "trained on one-scan maps)")
-    p.add_argument("--config", type=Path, default=None,
-                   help="settings file: TOML ([slam], [mcn] and [recording] tables, seed = N, model = NAME) or a "
-                        "run's summary.json (re-runs it); flags given here override it")
-    p.add_argument("--samples", type=int, default=None, help="K completions per particle (default 4; = --mcn.samples)")
-    p.add_argument("--ranks", type=int, default=None, help="R best particles completed (default 3; = --mcn.ranks)")
-    p.add_argument("--particles", type=int, default=None, help="SLAM particles (default 30; = --slam.n-particles)")
-    p.add_argument("--resolution", type=float, default=None,
-                   help="map cell size in metres (default 0.05; = --slam.resolution-m)")
-    p.add_argument("--window", choices=["map", "robot"], default=None,
-                   help="network input: the whole map shrunk to 64x64 (paper; the default) or a robot-centred square "
-                        "(= --mcn.window)")
-    p.add_argument("--window-m", type=float, default=None,
-                   help="side of the robot-centred window (default 12.8 m; = --mcn.window-m)")
-    p.add_argument("--every", type=int, default=None,
-                   help="complete at every N-th filter update (default 1: each; = --mcn.every)")
-    p.add_argument("--map-every", type=int, default=None,
-                   help=f"record the best full-resolution map every N completions (default {_RUN_MAP_EVERY}; "
-                        "= --mcn.full-map-every; not computed without a recording)")
-    p.add_argument("--seed", type=int, default=None,
-                   help="seed of the filter and of the samples (default 0, or the config file's)")
-    p.add_argument("--threads", type=int, default=1, help="torch CPU threads (default 1)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    add_recording_flags(p)
-    add_dataclass_flags(p, SlamConfig, "slam")
-    add_dataclass_flags(p, McnConfig, "mcn")
+                       "RecordingConfig field is a flag (--slam.FIELD, --slam.SECTION.FIELD, --mcn.FIELD, "
+                       "--recording.FIELD); summary.json and the recording (/config) hold the whole configuration, "
+                       "and --config OUT/summary.json re-runs it.")
+    model = (f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path (default: the config "
+             "file's, else unet-explore: the U-net trained on maps part-way through an exploration, which leaves the "
+             "outside of a building occupied; unet is the paper's, trained on one-scan maps)")
+    add_options(p, RunOptions, positional=("log",), const=LIVE_CONST, help={"model": model})
     p.set_defaults(func=cmd_run)

@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from mcnkit.app.exits import fail
+from mcnkit.app.options import add_options
 
-__all__ = ["add_simulate_parser", "cmd_simulate"]
+__all__ = ["SimulateOptions", "add_simulate_parser", "cmd_simulate"]
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -48,22 +51,42 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+@dataclass(frozen=True, kw_only=True)
+class SimulateOptions:
+    """``mcnkit simulate --map SPEC --out PATH``."""
+
+    map: str
+    """houseexpo:ID or procedural:SEED"""
+    out: str
+    """FILE.bag, FILE.mcap or a directory (rosbag2)"""
+    format: Literal["ros1", "ros2-sqlite3", "ros2-mcap", "mcap"] | None = None
+    """log format (default: from --out: .bag → ros1, .mcap → mcap, a folder → ros2-mcap)"""
+    seed: int = 0
+    """seed of the robot's path and of the sensor noise"""
+    beams: int = 360
+    """lidar beams per scan"""
+    fov_deg: float = 360.0
+    """lidar field of view in degrees"""
+    range_max: float = 8.0
+    """lidar range in metres"""
+    range_noise: float = 0.01
+    """range noise std (m)"""
+    dropout: float = 0.0
+    """probability that a beam returns nothing"""
+    odometry_noise: float = 1.0
+    """scale of the odometry noise (0 = perfect)"""
+    duration: float = 600.0
+    """simulated seconds at most"""
+    resolution: float = 0.05
+    """ground-truth raster resolution (m)"""
+    houseexpo: str | None = None
+    """json.tar.gz or json/ folder (default: the installed one)"""
+    overwrite: bool = False
+    """replace --out if it exists"""
+
+
 def add_simulate_parser(subparsers: argparse._SubParsersAction) -> None:
     """Adds ``mcnkit simulate``."""
     p = subparsers.add_parser("simulate", help="simulate a robot with a lidar on a floor plan and write a log")
-    p.add_argument("--map", required=True, help="houseexpo:ID or procedural:SEED")
-    p.add_argument("--out", required=True, help="FILE.bag, FILE.mcap or a directory (rosbag2)")
-    p.add_argument("--format", choices=["ros1", "ros2-sqlite3", "ros2-mcap", "mcap"],
-                   help="log format (default: from --out: .bag → ros1, .mcap → mcap, a folder → ros2-mcap)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the robot's path and of the sensor noise (default 0)")
-    p.add_argument("--beams", type=int, default=360, help="lidar beams per scan (default 360)")
-    p.add_argument("--fov-deg", type=float, default=360.0, help="lidar field of view in degrees (default 360)")
-    p.add_argument("--range-max", type=float, default=8.0, help="lidar range in metres (default 8)")
-    p.add_argument("--range-noise", type=float, default=0.01, help="range noise std (m)")
-    p.add_argument("--dropout", type=float, default=0.0, help="probability that a beam returns nothing")
-    p.add_argument("--odometry-noise", type=float, default=1.0, help="scale of the odometry noise (0 = perfect)")
-    p.add_argument("--duration", type=float, default=600.0, help="simulated seconds at most (default 600)")
-    p.add_argument("--resolution", type=float, default=0.05, help="ground-truth raster resolution (m)")
-    p.add_argument("--houseexpo", help="json.tar.gz or json/ folder (default: the installed one)")
-    p.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    add_options(p, SimulateOptions)
     p.set_defaults(func=cmd_simulate)

@@ -29,14 +29,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mcnkit.app.recording import add_recording_flags
-from mcnkit.app.runconfig import add_dataclass_flags, resolve_slam_config
+from mcnkit.app.options import add_options
+from mcnkit.app.recording import LIVE_CONST, LiveOptions
+from mcnkit.app.runconfig import resolve_slam_config
 from mcnkit.slam.config import SlamConfig
 
-__all__ = ["add_slam_parser", "run_slam"]
+__all__ = ["SlamOptions", "add_slam_parser", "run_slam"]
 
 _DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robot log and write into --out:
 
@@ -57,15 +59,44 @@ with 'rerun'), --serve from a gRPC server of its own on 127.0.0.1 (it prints the
 also serves a web viewer), both also beside --rrd.  The recording holds the whole configuration (/config).
 Score a trajectory with 'mcnkit eval'.
 
-Settings: every SlamConfig field is a --slam.FIELD flag, every RecordingConfig field a --recording.FIELD
-flag (below); --config FILE reads them from a TOML file ([slam] and [recording] tables, seed = N) or from a
-run's summary.json, which holds the full configuration, so
-'mcnkit slam LOG --config OLD/summary.json --out NEW' repeats a run exactly.
+Settings: every SlamConfig field is a --slam.FIELD flag (its sections' fields --slam.SECTION.FIELD), every
+RecordingConfig field a --recording.FIELD flag (below); --config FILE reads them from a TOML file ([slam],
+[slam.SECTION] and [recording] tables, seed = N) or from a run's summary.json, which holds the full
+configuration, so 'mcnkit slam LOG --config OLD/summary.json --out NEW' repeats a run exactly (a summary.json
+written before SlamConfig had sections is read too).
 
 Ctrl-C or SIGTERM stops after the scan at hand: --out and --rrd get the results so far (summary.json says
-"interrupted": true; trajectory.tum is then the tracked one, not refined), exit code 130 / 143.  Outputs never replace the log; an existing --rrd, or an --out
-folder that is not empty, is replaced only with --overwrite."""
+"interrupted": true; trajectory.tum is then the tracked one, not refined), exit code 130 / 143.  Outputs never
+replace the log; an existing --rrd, or an --out folder that is not empty, is replaced only with --overwrite."""
 
+
+@dataclass(frozen=True, kw_only=True)
+class SlamOptions(LiveOptions):
+    """``mcnkit slam LOG --out DIR [...]``: the filter's settings are the ``slam`` section."""
+
+    log: Path
+    """a log open_log reads (CARMEN .clf/.log[.gz], .bag, rosbag2, .mcap)"""
+    config: Path | None = None
+    """settings file: TOML ([slam], [slam.SECTION] and [recording] tables, seed = N) or a run's summary.json
+    (re-runs it); flags given here override it"""
+    particles: int | None = None
+    """number of particles (default 30; = --slam.n-particles)"""
+    resolution: float | None = None
+    """cell size in metres (default 0.05; = --slam.resolution-m)"""
+    seed: int | None = None
+    """random seed (default 0, or the config file's)"""
+    out: Path
+    """output folder (created; an existing one that is not empty needs --overwrite)"""
+    overwrite: bool = False
+    """replace existing outputs (--out files, --rrd)"""
+    no_progress: bool = False
+    """no progress bar"""
+    rrd: Path | None = None
+    """record every step to this Rerun file (.rrd)"""
+    rrd_map_every: int | None = None
+    """record the best particle's map every N filter updates (default 10; = --recording.map-every)"""
+    slam: SlamConfig = field(default_factory=SlamConfig)
+    """The filter's settings."""
 
 
 def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -73,28 +104,11 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
     p: argparse.ArgumentParser = subparsers.add_parser(
         "slam",
         help="run grid FastSLAM (gmapping-class) on a robot log",
-        usage="mcnkit slam LOG --out DIR [--rrd FILE] [--config FILE] [--slam.FIELD VALUE ...] [options]",
+        usage="mcnkit slam LOG --out DIR [--rrd FILE] [--config FILE] [--slam.SECTION.FIELD VALUE ...] [options]",
         description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("log", type=Path, help="a log open_log reads (CARMEN .clf/.log[.gz], .bag, rosbag2, .mcap)")
-    p.add_argument("--config", type=Path, default=None,
-                   help="settings file: TOML (a [slam] table of SlamConfig fields, seed = N) or a run's summary.json "
-                        "(re-runs it); flags given here override it")
-    p.add_argument("--particles", type=int, default=None, help="number of particles (default 30; = --slam.n-particles)")
-    p.add_argument("--resolution", type=float, default=None,
-                   help="cell size in metres (default 0.05; = --slam.resolution-m)")
-    p.add_argument("--seed", type=int, default=None, help="random seed (default 0, or the config file's)")
-    p.add_argument("--out", type=Path, required=True,
-                   help="output folder (created; an existing one that is not empty needs --overwrite)")
-    p.add_argument("--overwrite", action="store_true", help="replace existing outputs (--out files, --rrd)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--rrd", type=Path, help="record every step to this Rerun file (.rrd)")
-    p.add_argument("--rrd-map-every", type=int, default=None,
-                   help="record the best particle's map every N filter updates (default 10; "
-                        "= --recording.map-every)")
-    add_recording_flags(p)
-    add_dataclass_flags(p, SlamConfig, "slam")
+    add_options(p, SlamOptions, positional=("log",), const=LIVE_CONST)
     p.set_defaults(func=run_slam)
     return p
 
@@ -125,7 +139,8 @@ def run_slam(args: argparse.Namespace) -> int:
     try:
         file = config_file(args)
         config, seed = resolve_slam_config(args, file)
-        recording = resolve_section(RecordingConfig, args, "recording", file, {"map_every": args.rrd_map_every})
+        recording = resolve_section(RecordingConfig, args, "recording", file,
+                                    {"map_every": ("--rrd-map-every", args.rrd_map_every)})
         live = live_viewer(args, recording)
     except (ConfigError, ViewerError) as err:
         return fail("slam", err)

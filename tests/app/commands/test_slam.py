@@ -2,6 +2,7 @@
 
 import argparse
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -99,50 +100,107 @@ def test_slam_records_every_step_to_rerun_when_asked(tmp_path: Path) -> None:
     assert "/world/map/estimate" in {chunk.entity_path for chunk in store.stream()}
 
 
-def test_every_slam_config_field_has_a_flag_with_help() -> None:
+def _leaves(cls: type, path: str = "") -> Iterator[tuple[str, str]]:
+    """(dest, flag) of every field of a config dataclass, its sections' fields included."""
     import dataclasses
 
+    for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+        if dataclasses.is_dataclass(f.default_factory):
+            yield from _leaves(f.default_factory, f"{path}{f.name}.")  # type: ignore[arg-type]
+        else:
+            yield f"slam.{path}{f.name}", f"--slam.{path.replace('_', '-')}{f.name.rstrip('_').replace('_', '-')}"
+
+
+def test_every_slam_config_field_has_a_flag_with_help() -> None:
     from mcnkit.slam.config import SlamConfig
 
     parser = argparse.ArgumentParser("mcnkit")
     slam = add_slam_parser(parser.add_subparsers(required=True))
     options = {a.dest: a for a in slam._actions}
-    for f in dataclasses.fields(SlamConfig):
-        action = options[f"slam.{f.name}"]
-        assert f"--slam.{f.name.rstrip('_').replace('_', '-')}" in action.option_strings
-        assert action.help and "(default" in action.help and action.help.split(" (default")[0] != f.name
-    args = parser.parse_args(["slam", "x.clf", "--out", "o", "--slam.n-particles", "7", "--no-slam.loop-closure",
-                              "--slam.max-range-m", "none", "--slam.sigma-m2", "0.1", "--slam.str", "0.3"])
-    assert vars(args)["slam.n_particles"] == 7 and vars(args)["slam.loop_closure"] is False
-    assert vars(args)["slam.max_range_m"] is None and vars(args)["slam.str_"] == 0.3
-    assert "slam.srr" not in vars(args)  # only what was given
+    leaves = list(_leaves(SlamConfig))
+    assert len(leaves) == 86
+    for dest, flag in leaves:
+        action = options[dest]
+        assert flag in action.option_strings
+        assert action.help and "(default" in action.help and action.help.split(" (default")[0] != dest
+    args = parser.parse_args(["slam", "x.clf", "--out", "o", "--slam.n-particles", "7", "--no-slam.loops.closure",
+                              "--slam.matching.max-range-m", "none", "--slam.matching.sigma-m2", "0.1",
+                              "--slam.motion.str", "0.3"])
+    assert vars(args)["slam.n_particles"] == 7 and vars(args)["slam.loops.closure"] is False
+    assert vars(args)["slam.matching.max_range_m"] is None and vars(args)["slam.motion.str_"] == 0.3
+    assert "slam.motion.srr" not in vars(args)  # only what was given
 
 
-def test_config_file_flags_and_rerun_from_summary_reproduce_the_trajectory(
+def _flat(config: dict[str, object]) -> dict[str, object]:
+    """A sectioned SlamConfig table with the flat names it had before its sections."""
+    from mcnkit.slam.config import FLAT_NAMES
+
+    where = {new: old for old, new in FLAT_NAMES.items()}
+    out: dict[str, object] = {}
+    for key, value in config.items():
+        if isinstance(value, dict):
+            out.update({where[f"{key}.{name}"]: v for name, v in value.items()})
+        else:
+            out[key] = value
+    return out
+
+
+def test_section_flags_and_a_toml_file_with_sections_rerun_bit_for_bit(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     log = tmp_path / "corridor.clf"
     _write_clf(log)
     toml = tmp_path / "run.toml"
-    toml.write_text("seed = 3\n[slam]\nn_particles = 6\nlinear_update_m = 0.3\nloop_closure = false\n"
-                    "[recording]\nmap_every = 3\nflush_updates = 4\n")
+    toml.write_text("seed = 3\n[slam]\nn_particles = 6\n[slam.updates]\nlinear_m = 0.3\n[slam.loops]\n"
+                    "closure = false\n[recording]\nmap_every = 3\nflush_updates = 4\n")
     first = tmp_path / "first"
-    assert _run(["slam", str(log), "--config", str(toml), "--slam.n-particles", "5", "--slam.srr", "0.2",
+    assert _run(["slam", str(log), "--config", str(toml), "--slam.n-particles", "5", "--slam.motion.srr", "0.2",
                  "--out", str(first), "--no-progress"]) == 0
     summary = json.loads((first / "summary.json").read_text())
     assert summary["seed"] == 3
     cfg = summary["config"]
-    assert (cfg["n_particles"], cfg["linear_update_m"], cfg["loop_closure"], cfg["srr"]) == (5, 0.3, False, 0.2)
-    assert cfg["sigma_m2"] == 0.05 and len(cfg) > 24  # every field, defaults included
+    assert (cfg["n_particles"], cfg["updates"]["linear_m"], cfg["loops"]["closure"], cfg["motion"]["srr"]) == \
+        (5, 0.3, False, 0.2)
+    assert cfg["matching"]["sigma_m2"] == 0.05 and len(cfg) == 9  # every section, defaults included
     again = tmp_path / "again"
     assert _run(["slam", str(log), "--config", str(first / "summary.json"), "--out", str(again), "--no-progress"]) == 0
     assert (again / "trajectory.tum").read_bytes() == (first / "trajectory.tum").read_bytes()
     assert summary["recording"]["map_every"] == 3 and summary["recording"]["flush_updates"] == 4
     assert json.loads((again / "summary.json").read_text())["config"] == cfg
     assert json.loads((again / "summary.json").read_text())["recording"] == summary["recording"]
+    flags = tmp_path / "flags"  # the same settings as flags alone
+    assert _run(["slam", str(log), "--seed", "3", "--particles", "5", "--slam.updates.linear-m", "0.3",
+                 "--no-slam.loops.closure", "--slam.motion.srr", "0.2", "--recording.map-every", "3",
+                 "--out", str(flags), "--no-progress"]) == 0
+    assert (flags / "trajectory.tum").read_bytes() == (first / "trajectory.tum").read_bytes()
     other = tmp_path / "other"  # the settings matter: the defaults give another trajectory
     assert _run(["slam", str(log), "--out", str(other), "--no-progress"]) == 0
     assert (other / "trajectory.tum").read_bytes() != (first / "trajectory.tum").read_bytes()
-    capsys.readouterr()
+    old = dict(summary, config=_flat(cfg))  # a summary.json written before SlamConfig had sections
+    assert "linear_update_m" in old["config"] and "loop_closure" in old["config"]
+    (tmp_path / "old.json").write_text(json.dumps(old))
+    flat = tmp_path / "flat"
+    assert _run(["slam", str(log), "--config", str(tmp_path / "old.json"), "--out", str(flat), "--no-progress"]) == 0
+    assert (flat / "trajectory.tum").read_bytes() == (first / "trajectory.tum").read_bytes()
+    assert json.loads((flat / "summary.json").read_text())["config"] == cfg
+
+
+def test_bad_settings_are_reported_by_the_name_given(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "corridor.clf"
+    _write_clf(log)
+    out = ["--out", str(tmp_path / "x"), "--no-progress"]
+    for flags, message in ((["--particles", "0"], "--particles must be > 0, got 0"),
+                           (["--slam.n-particles", "0"], "--slam.n-particles must be > 0, got 0"),
+                           (["--slam.updates.resample-threshold", "2"],
+                            "--slam.updates.resample-threshold must be in [0, 1], got 2.0"),
+                           (["--slam.map.tile-cells", "12"], "--slam.map.tile-cells must be a power of two, got 12"),
+                           (["--rrd-map-every", "-1"],
+                            "--rrd-map-every must be >= 0 and --recording.flush-updates >= 1, got -1, 50")):
+        assert _run(["slam", str(log), *flags, *out]) == 2
+        assert capsys.readouterr().err.strip() == f"mcnkit slam: {message}", flags
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[slam.motion]\nsrr = -1.0\n")
+    assert _run(["slam", str(log), "--config", str(bad), *out]) == 2
+    assert capsys.readouterr().err.strip() == f"mcnkit slam: {bad}: slam.motion.srr must be >= 0, got -1.0"
     bad = tmp_path / "bad.toml"
     bad.write_text("[slam]\nn_particle = 6\n")
     assert _run(["slam", str(log), "--config", str(bad), "--out", str(tmp_path / "x"), "--no-progress"]) == 2
