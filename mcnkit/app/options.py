@@ -39,6 +39,7 @@ import dataclasses
 import inspect
 import itertools
 import re
+import sys
 import textwrap
 import typing
 from collections.abc import Mapping, Sequence
@@ -47,24 +48,41 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 __all__ = ["Hint", "add_options", "add_section_flags", "field_docs", "flag_name", "from_args", "hint_of",
-           "plain", "rename_fields"]
+           "plain", "rename_fields", "type_hints"]
 
 T = TypeVar("T")
 
 
 @cache
-def _own_docs(cls: type) -> dict[str, str]:
+def _module_docs(module: str) -> dict[str, dict[str, str]]:
+    """Class name -> its fields' docstrings, for every top-level class of ``module`` (its source parsed once)."""
     try:
-        tree = ast.parse(inspect.getsource(cls))
-    except (OSError, TypeError, SyntaxError):
+        tree = ast.parse(inspect.getsource(sys.modules[module]))
+    except (OSError, TypeError, SyntaxError, KeyError):
         return {}
-    body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
-    docs: dict[str, str] = {}
-    for node, after in itertools.pairwise(body):
-        if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and isinstance(after, ast.Expr)
-                and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
-            docs[node.target.id] = plain(after.value.value)
-    return docs
+    out: dict[str, dict[str, str]] = {}
+    for cls in (node for node in tree.body if isinstance(node, ast.ClassDef)):
+        docs = out.setdefault(cls.name, {})
+        for node, after in itertools.pairwise(cls.body):
+            if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and isinstance(after, ast.Expr)
+                    and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str)):
+                docs[node.target.id] = plain(after.value.value)
+    return out
+
+
+@cache
+def _hint(module: str, text: str) -> Any:
+    return eval(text, vars(sys.modules[module]))  # an annotation of that module, as typing.get_type_hints does
+
+
+def type_hints(cls: type) -> dict[str, Any]:
+    """The resolved type hints of a class's fields, its bases' included (``typing.get_type_hints``, with each
+    annotation string of a module evaluated once: the help of a command stays quick)."""
+    hints: dict[str, Any] = {}
+    for base in reversed(cls.__mro__):
+        for name, hint in vars(base).get("__annotations__", {}).items():
+            hints[name] = _hint(base.__module__, hint) if isinstance(hint, str) else hint
+    return hints
 
 
 def plain(doc: str) -> str:
@@ -78,7 +96,7 @@ def field_docs(cls: type) -> dict[str, str]:
     docs: dict[str, str] = {}
     for base in reversed(cls.__mro__):
         if dataclasses.is_dataclass(base):
-            docs.update(_own_docs(base))
+            docs.update(_module_docs(base.__module__).get(base.__qualname__, {}))
     return docs
 
 
@@ -154,7 +172,7 @@ def add_section_flags(parser: argparse.ArgumentParser, cls: type, section: str,
     """Adds ``--SECTION.FIELD`` for every field of the dataclass ``cls`` (sections within it recursively, as
     ``--SECTION.SUB.FIELD``), in one argument group per section.  A value lands in ``args`` as ``SECTION.FIELD``
     only when the flag is given."""
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     docs = field_docs(cls)
     summary = textwrap.fill(plain(cls.__doc__ or ""), 110).replace("%", "%%")
     group = parser.add_argument_group(f"--{section}.* settings ({cls.__name__}; override --config)", summary or None)
@@ -180,7 +198,7 @@ def add_options(parser: argparse.ArgumentParser, cls: type, *, positional: Seque
                 help: Mapping[str, str] | None = None) -> None:
     """Adds a flag (or a positional argument) for every field of the dataclass ``cls``, and the ``--SECTION.FIELD``
     flags of every field that is itself a dataclass (see the module docstring)."""
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     docs = {**field_docs(cls), **(help or {})}
     flags, choices = flags or {}, choices or {}
     for f in dataclasses.fields(cls):
@@ -228,7 +246,7 @@ def from_args(cls: type[T], args: argparse.Namespace, *, flags: Mapping[str, str
     """``cls`` from the values that :func:`add_options` parsed into ``args`` (its sections and the fields
     ``args`` lacks keep their defaults; ``extra`` overrides), tuples for tuple fields.  A value ``cls`` refuses
     raises ValueError naming the flag (``flags``: the renamed ones)."""
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     values: dict[str, Any] = {}
     for f in dataclasses.fields(cls):  # type: ignore[arg-type]
         if not hasattr(args, f.name) or dataclasses.is_dataclass(hint_of(hints[f.name]).kind):

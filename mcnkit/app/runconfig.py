@@ -17,12 +17,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from mcnkit.app.options import flag_name, hint_of, rename_fields
+from mcnkit.app.options import flag_name, hint_of, rename_fields, type_hints
 
 if TYPE_CHECKING:
     from mcnkit.slam.config import SlamConfig
@@ -77,7 +76,7 @@ def read_config_file(path: Path) -> dict[str, Any]:
 
 
 def _coerce(cls: type, path: str, name: str, value: Any) -> Any:
-    hint = hint_of(typing.get_type_hints(cls)[name])
+    hint = hint_of(type_hints(cls)[name])
     if hint.optional and value is None:
         return None
     if hint.many is not None:
@@ -110,7 +109,7 @@ def _merge(into: dict[str, Any], layer: Mapping[str, Any]) -> None:
 
 
 def _build(cls: type[T], table: Mapping[str, Any], path: str) -> T:
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = sorted(set(table) - names)
     if unknown:

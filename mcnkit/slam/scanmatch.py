@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mcnkit.geometry import compose
-from mcnkit.slam.config import SlamConfig
+from mcnkit.slam.config import MatchingConfig, SlamConfig
 from mcnkit.slam.maps import TiledHitMaps, cell_of
 from mcnkit.slam.window import MapArrays, Window, end_points, fill_window, no_window, window
 
@@ -301,6 +301,11 @@ def _args(maps: TiledHitMaps) -> MapArrays:
     return maps.table, maps.tx0, maps.ty0, maps.shift, maps.count, maps.mean_x, maps.mean_y
 
 
+def _settings(m: MatchingConfig) -> tuple[int, bool, float, float, float, float, int, float]:
+    """The matcher's settings in the order :func:`_match_all` takes them."""
+    return m.kernel_size, m.free_check, m.sigma_m2, m.lsigma_m2, m.lstep_m, m.astep_rad, m.iterations, m.minimum_score
+
+
 def _beams(end_xy: F64, back_xy: F64) -> Beams:
     return (
         np.ascontiguousarray(end_xy[:, 0], dtype=np.float64),
@@ -331,14 +336,7 @@ def match_particles(
         _beams(end_xy, back_xy),
         False,
         maps.resolution_m,
-        cfg.matching.kernel_size,
-        cfg.matching.free_check,
-        cfg.matching.sigma_m2,
-        cfg.matching.lsigma_m2,
-        cfg.matching.lstep_m,
-        cfg.matching.astep_rad,
-        cfg.matching.iterations,
-        cfg.matching.minimum_score,
+        *_settings(cfg.matching),
     )
     return MatchResult(out, scores, logliks)
 
@@ -402,14 +400,7 @@ def match_scans_to_map(
                 _beams(*scans[k]),
                 True,
                 maps.resolution_m,
-                cfg.matching.kernel_size,
-                cfg.matching.free_check,
-                cfg.matching.sigma_m2,
-                cfg.matching.lsigma_m2,
-                cfg.matching.lstep_m,
-                cfg.matching.astep_rad,
-                cfg.matching.iterations,
-                cfg.matching.minimum_score,
+                *_settings(cfg.matching),
             )
             out[k] = matched[0]
     return out
