@@ -1,6 +1,6 @@
 """A 2D robot simulator on a floor plan: exploration path, lidar, drifting odometry, ground truth.
 
-Given a plan raster (HouseExpo id or procedural seed, :func:`plan_raster`) the robot
+Given a plan raster (HouseExpo id, procedural seed or occupancy image, :func:`plan_raster`) the robot
 
 1. starts at a random pose in the largest connected region where its disc fits (``seed``);
 2. visits goals greedily, nearest first by path cost: room-box centres snapped to the clearest cell within 1.5 m,
@@ -14,7 +14,9 @@ Given a plan raster (HouseExpo id or procedural seed, :func:`plan_raster`) the r
    proportional to the motion (Thrun's odometry model), a per-run wheel-scale error and a yaw bias per metre.
 
 Odometry starts at the true start pose (so a SLAM map built in the odometry's first frame is aligned with the
-ground-truth map).  Everything is deterministic per seed.  :func:`write_sim_log` writes a bag/MCAP/rosbag2 with
+ground-truth map).  Everything is deterministic per seed.  Steps 3-5 are also pure functions of one frame
+(:func:`follow_step`, :func:`drive`, :func:`noisy_motion`, :func:`integrate_odometry`, :func:`cast_rays`,
+:func:`add_range_noise`) for a robot whose path is planned as it goes (:mod:`mcnkit.explore`).  :func:`write_sim_log` writes a bag/MCAP/rosbag2 with
 /scan, /odom, /tf, /tf_static, /ground_truth and /map_gt (see :mod:`mcnkit.io.writers`).
 
 Example:
@@ -36,20 +38,31 @@ from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from mcnkit.datasets.floorplans import generate_apartment, rasterize_apartment
+from mcnkit.datasets.houseexpo import FloorPlan, load_plan, rasterize_plan
 from mcnkit.datasets.houseexpo import houseexpo_source as find_houseexpo_source
-from mcnkit.datasets.houseexpo import load_plan, rasterize_plan
+from mcnkit.datasets.images import read_occupancy_image
 from mcnkit.geometry import compose, relative, wrap_angle
 from mcnkit.io import GroundTruthMap, LogContent, write_log
 from mcnkit.types import Frame, GridSpec, LidarSpec, Pose2D, Scan, Trajectory
 
 __all__ = [
     "LidarConfig",
+    "OdometryBias",
     "OdometryNoise",
     "PlanRaster",
     "SimConfig",
     "SimResult",
+    "add_range_noise",
     "cast_rays",
+    "draw_odometry_bias",
+    "drive",
+    "follow_step",
+    "houseexpo_raster",
+    "integrate_odometry",
+    "noisy_motion",
+    "path_done",
     "plan_raster",
+    "safe_region",
     "simulate",
     "write_sim_log",
 ]
@@ -136,7 +149,11 @@ class SimResult:
 def plan_raster(
     map_spec: str, resolution_m: float = 0.05, houseexpo_source: str | os.PathLike[str] | None = None
 ) -> PlanRaster:
-    """Rasterizes ``houseexpo:<id>`` or ``procedural:<seed>`` with a 1 m occupied border.
+    """Rasterizes ``houseexpo:<id>``, ``procedural:<seed>`` or ``image:<file>`` with a 1 m occupied border.
+
+    ``image:<file>``: a PNG/PGM occupancy image (dark = wall, light = free), its pixel size and origin from a ROS
+    map_server YAML beside it, else ``resolution_m`` (:func:`mcnkit.datasets.images.read_occupancy_image`); it has
+    no room boxes (the exploration path's goals are its 3 m tiles).
 
     Raises:
         ValueError: a malformed spec, a missing HouseExpo archive, or an unknown/invalid plan id.
@@ -155,11 +172,25 @@ def plan_raster(
         if source is None:
             raise ValueError("HouseExpo is not installed: run `mcnkit data install houseexpo --from PATH_OR_URL` "
                              "(or set MCNKIT_SHARED_DATA to a folder holding houseexpo/json.tar.gz)")
-        plan = load_plan(source, arg)  # PlanError is a ValueError
-        free, grid = rasterize_plan(plan, resolution_m, border)
-        boxes = plan.room_boxes_m
-        return PlanRaster(map_spec, free, grid, np.stack([boxes[:, [0, 2]].mean(1), boxes[:, [1, 3]].mean(1)], 1))
-    raise ValueError(f"map spec must be houseexpo:ID or procedural:SEED, got {map_spec!r}")
+        return houseexpo_raster(load_plan(source, arg), resolution_m)  # PlanError is a ValueError
+    if kind == "image":
+        if not arg:
+            raise ValueError("image:FILE needs a PNG/PGM path")
+        free, grid = read_occupancy_image(arg, resolution_m)
+        border = int(np.ceil(1.0 / grid.resolution_m))
+        padded = np.pad(free, border, constant_values=False)
+        g = GridSpec(grid.resolution_m, grid.origin_x_m - border * grid.resolution_m,
+                     grid.origin_y_m - border * grid.resolution_m, padded.shape[1], padded.shape[0])
+        return PlanRaster(map_spec, padded, g, np.zeros((0, 2)))
+    raise ValueError(f"map spec must be houseexpo:ID, procedural:SEED or image:FILE, got {map_spec!r}")
+
+
+def houseexpo_raster(plan: FloorPlan, resolution_m: float = 0.05) -> PlanRaster:
+    """A HouseExpo plan as ``houseexpo:<id>`` rasterizes (1 m occupied border, room-box centres as goals)."""
+    free, grid = rasterize_plan(plan, resolution_m, int(np.ceil(1.0 / resolution_m)))
+    boxes = plan.room_boxes_m
+    return PlanRaster(f"houseexpo:{plan.id}", free, grid,
+                      np.stack([boxes[:, [0, 2]].mean(1), boxes[:, [1, 3]].mean(1)], 1))
 
 
 def cast_rays(free: BoolArray, grid: GridSpec, laser_poses: F64, spec: LidarSpec) -> NDArray[np.float32]:
@@ -242,15 +273,24 @@ def _goals(raster: PlanRaster, safe: BoolArray, clearance: F64) -> list[tuple[in
     return list(dict.fromkeys(goals))
 
 
-def _plan_path(raster: PlanRaster, config: SimConfig, rng: np.random.Generator) -> F64:
-    """A collision-free exploration path (P, 2) in metres through the room goals, nearest goal first."""
-    res = raster.grid.resolution_m
-    clearance = ndimage.distance_transform_edt(raster.free) * res  # metres to the nearest occupied cell centre
+def safe_region(raster: PlanRaster, config: SimConfig) -> tuple[BoolArray, F64]:
+    """Where the robot may be: the largest connected region (H, W) of cells whose wall clearance exceeds the robot
+    radius plus the margin, and the clearance (H, W) in metres to the nearest occupied cell centre.
+
+    Raises:
+        ValueError: no cell is wide enough for the robot.
+    """
+    clearance = ndimage.distance_transform_edt(raster.free) * raster.grid.resolution_m
     safe = clearance > config.robot_radius_m + config.margin_m
     labels, n = ndimage.label(safe)
     if n == 0:
         raise ValueError(f"{raster.name}: no place wide enough for a robot of radius {config.robot_radius_m} m")
-    safe = labels == 1 + int(np.argmax(ndimage.sum(safe, labels, range(1, n + 1))))
+    return labels == 1 + int(np.argmax(ndimage.sum(safe, labels, range(1, n + 1)))), clearance
+
+
+def _plan_path(raster: PlanRaster, config: SimConfig, rng: np.random.Generator) -> F64:
+    """A collision-free exploration path (P, 2) in metres through the room goals, nearest goal first."""
+    safe, clearance = safe_region(raster, config)
     pref = config.robot_radius_m + 0.4
     cost = np.where(safe, 1.0 + 4.0 * np.clip((pref - clearance) / 0.4, 0.0, 1.0), np.inf)
     cells = np.flatnonzero(safe)
@@ -269,57 +309,116 @@ def _plan_path(raster: PlanRaster, config: SimConfig, rng: np.random.Generator) 
     return raster.grid.cell_to_world(np.asarray(path, dtype=np.int64))
 
 
-def _follow(path_m: F64, config: SimConfig, rng: np.random.Generator) -> F64:
-    """Carrot following along the path: true poses (N, 3), one per frame.
+def drive(pose: F64, v_m_s: float, w_rad_s: float, dt_s: float) -> F64:
+    """The pose (3,) after driving ``dt_s`` at speed ``v_m_s`` and turn rate ``w_rad_s`` (one Euler step)."""
+    out = pose + np.array([v_m_s * np.cos(pose[2]) * dt_s, v_m_s * np.sin(pose[2]) * dt_s, w_rad_s * dt_s])
+    out[2] = float(wrap_angle(out[2]))
+    return out
+
+
+def path_done(pose: F64, path_m: F64, carrot: int) -> bool:
+    """True once the carrot sits on the path's last point and the robot is within 0.1 m of it."""
+    last = len(path_m) - 1
+    return carrot == last and bool(np.hypot(*(path_m[last] - pose[:2])) < 0.1)
+
+
+def follow_step(pose: F64, path_m: F64, carrot: int, config: SimConfig) -> tuple[F64, int, F64]:
+    """One frame of carrot following from ``pose`` (3,) along ``path_m`` (P, 2): the pose after the frame, the
+    carrot's index, and the commands ``[v_m_s, w_rad_s]`` (S, 2) of the frame's S substeps (each ``1 / (S ·
+    scan_rate_hz)`` s; fewer when the carrot is reached).
 
     The carrot moves monotonically along the path, staying ``lookahead_m`` ahead of the robot; the robot turns
     in place when the carrot is more than 0.6 rad off its heading, else drives toward it.
     """
-    dt = 1.0 / config.scan_rate_hz
+    substeps = 5
+    h = 1.0 / config.scan_rate_hz / substeps
+    last = len(path_m) - 1
+    commands: list[tuple[float, float]] = []
+    for _ in range(substeps):
+        while carrot < last and np.hypot(*(path_m[carrot] - pose[:2])) < config.lookahead_m:
+            carrot += 1
+        target = path_m[carrot]
+        dist = float(np.hypot(*(target - pose[:2])))
+        if dist < 0.02:
+            break
+        err = float(wrap_angle(np.arctan2(target[1] - pose[1], target[0] - pose[0]) - pose[2]))
+        v = 0.0 if abs(err) > 0.6 else min(config.speed_m_s * np.cos(err), dist / h)
+        w = float(np.clip(2.0 * err, -config.turn_rate_rad_s, config.turn_rate_rad_s))
+        commands.append((v, w))
+        pose = drive(pose, v, w, h)
+    return pose, carrot, np.asarray(commands, np.float64).reshape(-1, 2)
+
+
+def _follow(path_m: F64, config: SimConfig, rng: np.random.Generator) -> F64:
+    """Carrot following along the path (:func:`follow_step`): true poses (N, 3), one per frame."""
     n_max = int(config.max_duration_s * config.scan_rate_hz)
     start_dir = path_m[min(5, len(path_m) - 1)] - path_m[0]
     yaw0 = float(np.arctan2(start_dir[1], start_dir[0])) if np.any(start_dir) else float(rng.random() * 2 * np.pi)
     pose = np.array([path_m[0, 0], path_m[0, 1], yaw0])
-    k, last, poses, substeps = 0, len(path_m) - 1, [pose.copy()], 5
-    h = dt / substeps
+    k, poses = 0, [pose.copy()]
     while len(poses) < n_max:
-        if k == last and np.hypot(*(path_m[last] - pose[:2])) < 0.1:
+        if path_done(pose, path_m, k):
             break
-        for _ in range(substeps):
-            while k < last and np.hypot(*(path_m[k] - pose[:2])) < config.lookahead_m:
-                k += 1
-            target = path_m[k]
-            dist = float(np.hypot(*(target - pose[:2])))
-            if dist < 0.02:
-                break
-            err = float(wrap_angle(np.arctan2(target[1] - pose[1], target[0] - pose[0]) - pose[2]))
-            v = 0.0 if abs(err) > 0.6 else min(config.speed_m_s * np.cos(err), dist / h)
-            w = float(np.clip(2.0 * err, -config.turn_rate_rad_s, config.turn_rate_rad_s))
-            pose = pose + np.array([v * np.cos(pose[2]) * h, v * np.sin(pose[2]) * h, w * h])
-            pose[2] = float(wrap_angle(pose[2]))
+        pose, k, _ = follow_step(pose, path_m, k, config)
         poses.append(pose.copy())
     return np.asarray(poses)
 
 
-def _odometry(truth: F64, noise: OdometryNoise, rng: np.random.Generator) -> F64:
-    """Drifting odometry (N, 3) from true poses, starting at the true start pose."""
+@dataclass(frozen=True)
+class OdometryBias:
+    """A run's systematic odometry errors, drawn once (:func:`draw_odometry_bias`)."""
+
+    scale: float
+    """Factor on every translation (1: none)."""
+    yaw_bias_rad_per_m: float
+    """Heading error added per metre driven."""
+
+
+def draw_odometry_bias(noise: OdometryNoise, rng: np.random.Generator) -> OdometryBias:
+    """A run's wheel-scale error and yaw bias per metre (two standard normals from ``rng``)."""
     scale = 1.0 + noise.scale_std * rng.standard_normal()
-    yaw_bias = noise.yaw_bias_std_rad_per_m * rng.standard_normal()
-    step = relative(truth[:-1], truth[1:])  # (N-1, 3) true motion in the robot frame
+    return OdometryBias(scale, noise.yaw_bias_std_rad_per_m * rng.standard_normal())
+
+
+def noisy_motion(step: F64, normals: F64, bias: OdometryBias, noise: OdometryNoise) -> tuple[F64, F64, F64]:
+    """Thrun's odometry model: the true motions (N, 3) in the robot frame as measured (rot1, trans, rot2), each
+    (N,), given standard normals (3, N) for rot1, rot2 and trans, and the run's bias."""
     trans = np.hypot(step[:, 0], step[:, 1])
     rot1 = np.where(trans > 1e-6, np.arctan2(step[:, 1], step[:, 0]), 0.0)
     rot2 = wrap_angle(step[:, 2] - rot1)
-    n = len(step)
-    rot1_n = rot1 + rng.normal(0.0, 1.0, n) * (noise.rot_per_rot * np.abs(rot1) + noise.rot_per_m * trans)
-    rot2_n = rot2 + rng.normal(0.0, 1.0, n) * (noise.rot_per_rot * np.abs(rot2) + noise.rot_per_m * trans)
+    rot1_n = rot1 + normals[0] * (noise.rot_per_rot * np.abs(rot1) + noise.rot_per_m * trans)
+    rot2_n = rot2 + normals[1] * (noise.rot_per_rot * np.abs(rot2) + noise.rot_per_m * trans)
     sd_t = noise.trans_per_m * trans + noise.trans_per_rot * (np.abs(rot1) + np.abs(rot2))
-    trans_n = scale * trans + rng.normal(0.0, 1.0, n) * sd_t
-    rot2_n = rot2_n + yaw_bias * trans
-    odo = [truth[0]]
-    for k in range(n):
-        d = np.array([trans_n[k] * np.cos(rot1_n[k]), trans_n[k] * np.sin(rot1_n[k]), rot1_n[k] + rot2_n[k]])
+    trans_n = bias.scale * trans + normals[2] * sd_t
+    rot2_n = rot2_n + bias.yaw_bias_rad_per_m * trans
+    return rot1_n, trans_n, rot2_n
+
+
+def integrate_odometry(start: F64, rot1: F64, trans: F64, rot2: F64) -> F64:
+    """Odometry poses (N + 1, 3) from ``start`` (3,) and N measured motions (each (N,), see :func:`noisy_motion`)."""
+    odo = [start]
+    for k in range(len(trans)):
+        d = np.array([trans[k] * np.cos(rot1[k]), trans[k] * np.sin(rot1[k]), rot1[k] + rot2[k]])
         odo.append(compose(odo[-1], d))
     return np.asarray(odo)
+
+
+def _odometry(truth: F64, noise: OdometryNoise, rng: np.random.Generator) -> F64:
+    """Drifting odometry (N, 3) from true poses, starting at the true start pose."""
+    bias = draw_odometry_bias(noise, rng)
+    step = relative(truth[:-1], truth[1:])  # (N-1, 3) true motion in the robot frame
+    n = len(step)
+    normals = np.stack([rng.normal(0.0, 1.0, n) for _ in range(3)])  # rot1, rot2, trans
+    return integrate_odometry(truth[0], *noisy_motion(step, normals, bias, noise))
+
+
+def add_range_noise(ranges_m: NDArray[np.float32], lidar: LidarConfig, rng: np.random.Generator) -> None:
+    """Adds Gaussian noise to the finite ranges (F, B), in place, then drops beams (``dropout_prob``) and those
+    outside the range interval (set to ``inf``)."""
+    finite = np.isfinite(ranges_m)
+    ranges_m[finite] += rng.normal(0.0, lidar.noise_std_m, int(finite.sum())).astype(np.float32)
+    drop = rng.random(ranges_m.shape) < lidar.dropout_prob
+    ranges_m[drop | (ranges_m < lidar.range_min_m) | (ranges_m > lidar.range_max_m)] = np.inf
 
 
 def simulate(raster: PlanRaster, config: SimConfig | None = None, seed: int = 0) -> SimResult:
@@ -333,10 +432,7 @@ def simulate(raster: PlanRaster, config: SimConfig | None = None, seed: int = 0)
     ranges = np.concatenate(
         [cast_rays(raster.free, raster.grid, laser[i : i + 16], spec) for i in range(0, len(laser), 16)]
     )
-    finite = np.isfinite(ranges)
-    ranges[finite] += rng.normal(0.0, cfg.lidar.noise_std_m, int(finite.sum())).astype(np.float32)
-    drop = rng.random(ranges.shape) < cfg.lidar.dropout_prob
-    ranges[drop | (ranges < spec.range_min_m) | (ranges > spec.range_max_m)] = np.inf
+    add_range_noise(ranges, cfg.lidar, rng)
     stamps = cfg.start_stamp_ns + (np.arange(len(truth)) * (1e9 / cfg.scan_rate_hz)).astype(np.int64)
     frames = [
         Frame(int(stamps[i]), Scan(ranges[i].astype(np.float32), spec), Pose2D.from_array(odo[i]))

@@ -7,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 from scipy import ndimage
 
 from mcnkit.app.commands.simulate import add_simulate_parser
-from mcnkit.geometry import compose
+from mcnkit.geometry import compose, relative
 from mcnkit.io import open_log
 from mcnkit.sim import (
     LidarConfig,
@@ -19,6 +20,11 @@ from mcnkit.sim import (
     SimConfig,
     SimResult,
     cast_rays,
+    draw_odometry_bias,
+    follow_step,
+    integrate_odometry,
+    noisy_motion,
+    path_done,
     plan_raster,
     simulate,
     write_sim_log,
@@ -158,6 +164,72 @@ def test_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert _cli(["simulate", "--map", "procedural:2", "--out", str(out), "--duration", "5", "--beams", "90"]) == 0
     with open_log(out) as log:
         assert log.lidar_spec.n_beams == 90
+    pixels = np.zeros((50, 70), np.uint8)
+    pixels[5:45, 5:65] = 255
+    png = _image(tmp_path / "plan.png", pixels)
+    assert _cli(["simulate", "--map", f"image:{png}", "--out", str(tmp_path / "img.mcap"), "--duration", "2",
+                 "--resolution", "0.1"]) == 0
+    with open_log(tmp_path / "img.mcap") as log:
+        gmap = log.ground_truth_map()
+        assert gmap is not None and gmap.resolution_m == pytest.approx(0.1)
     assert _cli(["simulate", "--map", "nowhere:1", "--out", str(tmp_path / "x.bag")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "houseexpo:ID or procedural:SEED" in err[0]
+    assert len(err) == 1 and "houseexpo:ID, procedural:SEED or image:FILE" in err[0]
+
+
+def test_one_frame_at_a_time_is_the_same_robot(run: SimResult) -> None:
+    """The step functions a planning robot uses drive and measure exactly as the batch simulation does."""
+    truth = run.ground_truth.poses
+    path = truth[::5, :2]
+    pose, k, commands = follow_step(truth[0], path, 0, SHORT)
+    assert commands.shape[1] == 2 and len(commands) <= 5 and k >= 0
+    assert np.hypot(*(pose[:2] - truth[0, :2])) <= SHORT.speed_m_s / SHORT.scan_rate_hz + 1e-9
+    assert not path_done(truth[0], path, 0) and path_done(np.array([*path[-1], 0.0]), path, len(path) - 1)
+    noise = SHORT.odometry
+    rng = np.random.default_rng(7)
+    bias = draw_odometry_bias(noise, rng)
+    normals = rng.standard_normal((3, len(truth) - 1))
+    step = relative(truth[:-1], truth[1:])
+    batch = integrate_odometry(truth[0], *noisy_motion(step, normals, bias, noise))
+    odo = truth[0]
+    for i in range(len(step)):
+        odo = integrate_odometry(odo, *noisy_motion(step[i : i + 1], normals[:, i : i + 1], bias, noise))[-1]
+    np.testing.assert_allclose(odo, batch[-1], atol=1e-12)
+
+
+def _image(path: Path, pixels: np.ndarray) -> Path:
+    Image.fromarray(pixels.astype(np.uint8)).save(path)
+    return path
+
+
+def test_image_plan_without_yaml(tmp_path: Path) -> None:
+    pixels = np.zeros((40, 60), np.uint8)  # walls
+    pixels[5:35, 5:55] = 255  # a 5 m × 3 m room at 0.1 m
+    pixels[5, 5] = 205  # map_server's "unknown" grey: not free
+    png = _image(tmp_path / "room.png", pixels)
+    raster = plan_raster(f"image:{png}", 0.1)
+    border = 10
+    assert raster.grid.resolution_m == 0.1 and raster.free.shape == (40 + 2 * border, 60 + 2 * border)
+    assert raster.grid.origin_x_m == pytest.approx(-1.0) and raster.free.sum() == 30 * 50 - 1
+    top_left = raster.grid.world_to_cell(np.array([0.55, 3.45]))  # image row 5 is the room's top (highest y)
+    assert not raster.free[top_left[0], top_left[1]] and raster.free[top_left[0], top_left[1] + 1]
+    result = simulate(raster, SimConfig(max_duration_s=3.0), seed=0)
+    assert len(result.frames) == 30 and np.isfinite(result.frames[0].scan.ranges_m).any()
+
+
+def test_image_plan_with_a_map_server_yaml(tmp_path: Path) -> None:
+    pixels = np.full((30, 30), 255, np.uint8)
+    pixels[10:20, 10:20] = 0  # negated below: this square is the free space
+    pgm = _image(tmp_path / "lab.pgm", pixels)
+    (tmp_path / "lab.yaml").write_text("image: lab.pgm\nresolution: 0.05\norigin: [2.0, -1.0, 0.0]\nnegate: 1\n"
+                                       "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    raster = plan_raster(f"image:{pgm}", 0.2)
+    assert raster.grid.resolution_m == 0.05 and raster.free.sum() == 100
+    assert raster.grid.origin_x_m == pytest.approx(1.0) and raster.grid.origin_y_m == pytest.approx(-2.0)
+    (tmp_path / "lab.yaml").write_text("image: lab.pgm\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match="resolution"):
+        plan_raster(f"image:{pgm}")
+    with pytest.raises(ValueError, match="not a readable occupancy image"):
+        plan_raster(f"image:{tmp_path / 'missing.png'}")
+    with pytest.raises(ValueError, match="no free pixel"):
+        plan_raster(f"image:{_image(tmp_path / 'black.png', np.zeros((5, 5)))}")

@@ -56,7 +56,8 @@ class SimulateOptions:
     """``mcnkit simulate --map SPEC --out PATH``."""
 
     map: str
-    """houseexpo:ID or procedural:SEED"""
+    """houseexpo:ID, procedural:SEED or image:FILE (a PNG/PGM occupancy image, dark = wall, light = free; a ROS
+    map_server .yaml beside it gives its resolution and origin)"""
     out: str
     """FILE.bag, FILE.mcap or a directory (rosbag2)"""
     format: Literal["ros1", "ros2-sqlite3", "ros2-mcap", "mcap"] | None = None
@@ -78,7 +79,7 @@ class SimulateOptions:
     duration: float = 600.0
     """simulated seconds at most"""
     resolution: float = 0.05
-    """ground-truth raster resolution (m)"""
+    """ground-truth raster resolution (m); for image:FILE without a .yaml, the image's pixel size"""
     houseexpo: str | None = None
     """json.tar.gz or json/ folder (default: the installed one)"""
     overwrite: bool = False

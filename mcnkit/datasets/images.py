@@ -1,0 +1,112 @@
+"""Floor plans a user has as an occupancy image: a PNG/PGM (dark = wall, light = free), placed by a ROS
+``map_server`` YAML beside it when there is one.
+
+The YAML (``<image stem>.yaml`` next to the image, or any YAML whose ``image:`` names it) gives ``resolution``,
+``origin`` ``[x, y, yaw]`` (the lower-left pixel's corner; a yaw is not supported), ``negate``,
+``occupied_thresh`` and ``free_thresh`` with map_server's meaning: a pixel's occupancy is ``p = (255 − v) / 255``
+(``v / 255`` when negated); free below ``free_thresh``, occupied above ``occupied_thresh``, unknown between.
+Without a YAML the pixel size is the caller's and map_server's default thresholds (0.196 / 0.65) apply.  For
+simulation only free pixels are free: unknown pixels count as walls.  Colour images are read as their luminance;
+transparent pixels count as unknown.
+
+Example:
+    >>> free, grid = read_occupancy_image("lab.png", resolution_m=0.05)  # doctest: +SKIP
+    >>> free.shape == grid.shape                                          # doctest: +SKIP
+    True
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.types import GridSpec
+
+__all__ = ["MapYaml", "find_map_yaml", "read_map_yaml", "read_occupancy_image"]
+
+BoolArray = NDArray[np.bool_]
+
+
+@dataclass(frozen=True)
+class MapYaml:
+    """What a ROS ``map_server`` YAML says about its image (metres; the thresholds are occupancy probabilities)."""
+
+    resolution_m: float
+    origin_x_m: float = 0.0
+    origin_y_m: float = 0.0
+    negate: bool = False
+    occupied_thresh: float = 0.65
+    free_thresh: float = 0.196
+
+
+def read_map_yaml(path: str | os.PathLike[str]) -> MapYaml:
+    """Reads a map_server YAML; raises ValueError naming the file when it lacks a resolution or is malformed."""
+    from ruamel.yaml import YAML, YAMLError
+
+    try:
+        doc = YAML(typ="safe").load(Path(path).read_text())
+    except (OSError, YAMLError, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: not a readable map YAML ({type(e).__name__})") from None
+    if not isinstance(doc, dict) or "resolution" not in doc:
+        raise ValueError(f"{path}: a map YAML needs a 'resolution'")
+    try:
+        origin = [float(v) for v in doc.get("origin", [0.0, 0.0, 0.0])]
+        out = MapYaml(float(doc["resolution"]), origin[0], origin[1], bool(int(doc.get("negate", 0))),
+                      float(doc.get("occupied_thresh", 0.65)), float(doc.get("free_thresh", 0.196)))
+    except (TypeError, ValueError, IndexError):
+        raise ValueError(f"{path}: malformed resolution, origin, negate or thresholds") from None
+    if len(origin) > 2 and abs(origin[2]) > 1e-9:
+        raise ValueError(f"{path}: a rotated map origin (yaw {origin[2]}) is not supported")
+    if not out.resolution_m > 0:
+        raise ValueError(f"{path}: resolution must be positive, got {out.resolution_m}")
+    return out
+
+
+def find_map_yaml(image: Path) -> Path | None:
+    """The YAML describing ``image``: ``<stem>.yaml``/``.yml`` beside it, else a YAML beside it whose ``image:``
+    line names it; None when there is none."""
+    for suffix in (".yaml", ".yml"):
+        if (candidate := image.with_suffix(suffix)).is_file():
+            return candidate
+    for candidate in sorted(image.parent.glob("*.y*ml")):
+        try:
+            lines = candidate.read_text().splitlines()
+        except (OSError, UnicodeDecodeError):
+            continue
+        if any(line.split(":", 1)[0].strip() == "image" and line.split(":", 1)[1].strip().strip("'\"") == image.name
+               for line in lines if ":" in line):
+            return candidate
+    return None
+
+
+def read_occupancy_image(path: str | os.PathLike[str], resolution_m: float = 0.05) -> tuple[BoolArray, GridSpec]:
+    """The free cells (H, W) of an occupancy image (row 0 = lowest y, the image's bottom row) and their grid:
+    resolution and origin from the map_server YAML beside it, else ``resolution_m`` and the origin at 0.
+
+    Raises:
+        ValueError: an unreadable image or YAML, or an image without a free pixel.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    image_path = Path(path)
+    yaml_path = find_map_yaml(image_path) if image_path.is_file() else None
+    meta = read_map_yaml(yaml_path) if yaml_path is not None else MapYaml(resolution_m)
+    try:
+        with Image.open(image_path) as img:
+            alpha = np.asarray(img.getchannel("A")) if "A" in img.getbands() else None
+            gray = np.asarray(img.convert("L"), np.float64)
+    except (OSError, UnidentifiedImageError, ValueError) as e:
+        raise ValueError(f"{image_path}: not a readable occupancy image ({e})") from None
+    occupancy = gray / 255.0 if meta.negate else (255.0 - gray) / 255.0
+    free = occupancy < meta.free_thresh
+    if alpha is not None:
+        free &= alpha > 0
+    if not free.any():
+        raise ValueError(f"{image_path}: no free pixel (light = free, dark = wall; thresholds from "
+                         f"{yaml_path or 'the map_server defaults'})")
+    h, w = free.shape
+    return free[::-1].copy(), GridSpec(meta.resolution_m, meta.origin_x_m, meta.origin_y_m, w, h)
