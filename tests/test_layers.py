@@ -17,14 +17,15 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("base", ("__init__.py", "_lazy.py", "types.py", "geometry.py", "grid.py", "locations.py", "threads.py")),
     ("library", ("io", "slam", "completion", "datasets", "metrics.py")),
     ("MCN-SLAM and the simulator", ("mcn.py", "mcn_config.py", "sim.py")),
+    ("exploration", ("explore",)),
     ("application", ("app",)),
     ("display", ("viz",)),
     ("experiments", ("experiments",)),
     ("commands", ("app/commands", "app/main.py")),
 )
-"""Bottom to top: the application's loop, sinks and settings (``app/``) under the display that records and shows
-its runs (``viz/``), the paper's experiments over both, and the commands (``app/commands/``, ``app/main.py``) over
-everything."""
+"""Bottom to top: exploration (``explore/``, a robot that plans where to look) on MCN-SLAM and the simulator, the
+application's loop, sinks and settings (``app/``) under the display that records and shows its runs (``viz/``), the
+paper's experiments over both, and the commands (``app/commands/``, ``app/main.py``) over everything."""
 
 
 def layer(module: str, root: Path = PACKAGE) -> int | None:

@@ -1,0 +1,97 @@
+"""Exploration settings (:class:`ExploreConfig`, :class:`GainConfig`), apart from the algorithms so that the command
+line can generate its ``--explore.FIELD`` / ``--gain.FIELD`` flags without importing numba or torch."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+__all__ = ["PLANNERS", "ExploreConfig", "GainConfig", "PlannerName"]
+
+PlannerName = Literal["frontier", "mcn"]
+PLANNERS: tuple[PlannerName, ...] = ("frontier", "mcn")
+"""``frontier``: the nearest reachable frontier (Yamauchi 1997); ``mcn``: frontiers scored by the information the
+K sampled completions expect there, against the path cost."""
+
+
+@dataclass(frozen=True)
+class ExploreConfig:
+    """The closed loop shared by every planner: when to plan, what a frontier is, when to stop."""
+
+    budget_m: float = 120.0
+    """Path budget: the run stops once the robot has driven this far [m]."""
+    stop_coverage: float = 1.0
+    """The run also stops once this share of the reachable free space is observed (1: only when no reachable
+    frontier is left or the budget is spent)."""
+    replan_m: float = 1.0
+    """A new plan (goal and path) every time the robot has driven this far, and whenever it reached its goal [m]."""
+    plan_resolution_m: float = 0.05
+    """Cell size of the planning grid, the SLAM map pooled on it (occupied > free > unknown) [m]."""
+    plan_margin_m: float = 0.05
+    """Paths keep the robot radius plus this from the SLAM map's walls (less than the simulator's margin, which
+    defines the reachable space: a map's walls come out a little thicker than the true ones) [m]."""
+    frontier_min_m: float = 0.5
+    """Frontier clusters (8-connected free cells next to unknown space) shorter than this are ignored [m]."""
+    unknown_min_m2: float = 0.25
+    """Unknown regions smaller than this (holes between beams) make no frontier [m²]."""
+    segment_m: float = 2.0
+    """Long frontiers are cut into pieces of at most this side, each with its own viewpoint [m]."""
+    reach_m: float = 0.6
+    """A frontier's viewpoint is the reachable cell nearest to it, at most this far from it [m]."""
+    goal_tolerance_m: float = 0.3
+    """The goal is reached within this distance [m]."""
+    blacklist_m: float = 0.5
+    """Frontier viewpoints within this distance of a goal that was reached without its frontier going away, or that
+    the robot could not get to, are dropped for the rest of the run [m]."""
+    stuck_s: float = 8.0
+    """A goal the robot gets no closer to for this long is dropped [s]."""
+    coverage_rays: int = 1440
+    """Rays over 360° that measure what the sensor saw (the coverage), finer than the lidar's beams."""
+    coverage_lattice_m: float = 0.5
+    """Spacing of the safe positions from which the reachable free space (every free cell a scan from a reachable
+    place can see) is computed [m]."""
+
+    def __post_init__(self) -> None:
+        if not (self.budget_m > 0 and self.replan_m > 0 and self.plan_resolution_m > 0 and self.segment_m > 0
+                and self.plan_margin_m >= 0):
+            raise ValueError(f"budget, replan distance, planning resolution and segment must be positive: {self}")
+        if not 0 < self.stop_coverage <= 1:
+            raise ValueError(f"stop_coverage must be in (0, 1], got {self.stop_coverage}")
+        if self.coverage_rays < 4 or self.coverage_lattice_m <= 0:
+            raise ValueError(f"coverage_rays must be >= 4 and coverage_lattice_m positive: {self}")
+
+
+@dataclass(frozen=True)
+class GainConfig:
+    """How the ``mcn`` planner scores a frontier viewpoint from the K sampled completions (of the model the command
+    line's ``--model`` names)."""
+
+    samples: int = 8
+    """K completions drawn at every planning step."""
+    gain: Literal["unknown", "disagreement", "observed"] = "unknown"
+    """``unknown``: the area unknown in the SLAM map that a scan from the viewpoint would see, ray-cast through each
+    sample's own walls, averaged over the samples; ``disagreement``: the same cells weighted by how much the
+    samples disagree on them (4·p·(1−p), p the share of samples that say occupied); ``observed``: no prediction,
+    the unknown area seen through the SLAM map's known walls only (unknown space counted transparent)."""
+    tradeoff: Literal["ratio", "exp"] = "ratio"
+    """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost)."""
+    cost_lambda_per_m: float = 0.3
+    """λ of the ``exp`` trade-off [1/m]."""
+    cost_floor_m: float = 1.0
+    """Added to the path cost of the ``ratio`` trade-off, so a frontier at the robot's feet does not win by
+    dividing by zero [m]."""
+    window_margin_m: float = 2.0
+    """The network's window: the SLAM map's seen bounds plus this margin, padded square (the nets were trained on
+    whole houses filling the window; the margin leaves room for the part not seen yet) [m]."""
+    window_min_m: float = 8.0
+    """The window's side is at least this (early maps are small) [m]."""
+    beams: int = 180
+    """Rays per viewpoint of the visibility cast."""
+
+    def __post_init__(self) -> None:
+        if self.samples < 1 or self.beams < 4:
+            raise ValueError(f"samples must be >= 1 and beams >= 4: {self}")
+        if self.gain not in ("unknown", "disagreement", "observed") or self.tradeoff not in ("ratio", "exp"):
+            raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
+        if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:
+            raise ValueError(f"cost_lambda_per_m and window_margin_m must be >= 0, cost_floor_m > 0: {self}")

@@ -1,0 +1,71 @@
+"""Coverage: the share of the reachable free space that the robot's sensor has seen, measured on the ground truth.
+
+*Seen* is what a scan from the true laser pose can see: the free cells that rays (``coverage_rays`` over 360°,
+finer than the lidar's beams so that far cells between two beams are not missed) cross before the first wall,
+up to the lidar's range.  The *reachable free space* is every free cell a scan can see from some place the robot
+fits in and can get to (the simulator's safe region, :func:`mcnkit.sim.safe_region`), sampled on a
+``coverage_lattice_m`` lattice plus the start: space behind a gap too narrow for the robot, or never in sight of
+one, does not count against it.  Both planners are measured by the same numbers, independent of their SLAM maps.
+
+Example:
+    >>> reach = reachable_free(raster, safe, start_xy_m, range_m=8.0, rays=720, lattice_m=0.5)  # doctest: +SKIP
+    >>> seen = np.zeros_like(reach); mark_seen(raster.free, raster.grid, seen, laser_xy_m, 8.0, 720)  # doctest: +SKIP
+    >>> (seen & reach).sum() / reach.sum()                                                     # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.sim import PlanRaster
+from mcnkit.types import GridSpec
+
+__all__ = ["mark_seen", "reachable_free"]
+
+F64 = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+
+@numba.njit(cache=True)
+def _mark(free: NDArray[np.bool_], seen: NDArray[np.bool_], origins: F64, range_cells: float, rays: int) -> None:
+    """Marks in ``seen`` the free cells rays from each origin (col, row in cells) cross before the first wall."""
+    h, w = free.shape
+    steps = int(range_cells * 2.0)
+    for i in range(origins.shape[0]):
+        ox, oy = origins[i, 0], origins[i, 1]
+        for b in range(rays):
+            ang = 2.0 * math.pi * b / rays
+            dx, dy = math.cos(ang), math.sin(ang)
+            for s in range(steps + 1):
+                t = 0.5 * s
+                c = int(math.floor(ox + dx * t))
+                r = int(math.floor(oy + dy * t))
+                if r < 0 or r >= h or c < 0 or c >= w or not free[r, c]:
+                    break
+                seen[r, c] = True
+
+
+def mark_seen(free: BoolArray, grid: GridSpec, seen: BoolArray, xy_m: NDArray[np.floating], range_m: float,
+              rays: int) -> None:
+    """Marks in ``seen`` (H, W), in place, the free cells a scan from each position ``xy_m`` (N, 2) sees."""
+    xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+    origins = np.stack([(xy[:, 0] - grid.origin_x_m) / grid.resolution_m,
+                        (xy[:, 1] - grid.origin_y_m) / grid.resolution_m], 1)
+    _mark(np.ascontiguousarray(free), seen, np.ascontiguousarray(origins), range_m / grid.resolution_m, int(rays))
+
+
+def reachable_free(raster: PlanRaster, safe: BoolArray, start_xy_m: NDArray[np.floating], range_m: float, rays: int,
+                   lattice_m: float) -> BoolArray:
+    """(H, W) the free cells a scan sees from the safe cells on a ``lattice_m`` lattice, and from the start."""
+    step = max(int(round(lattice_m / raster.grid.resolution_m)), 1)
+    lattice = np.zeros_like(safe)
+    lattice[::step, ::step] = True
+    rc = np.argwhere(safe & lattice)
+    xy = np.concatenate([raster.grid.cell_to_world(rc), np.asarray(start_xy_m, np.float64).reshape(1, 2)])
+    out = np.zeros_like(raster.free)
+    mark_seen(raster.free, raster.grid, out, xy, range_m, rays)
+    return out

@@ -1,0 +1,322 @@
+"""The closed loop: sensor → SLAM → (completion →) planner → motion, one frame at a time, until done.
+
+:class:`Explorer` puts the simulator's robot (:mod:`mcnkit.sim`: its lidar, its carrot following, its drifting
+odometry) in a plan at a random safe pose and runs, per frame (``1 / scan_rate_hz`` s):
+
+1. a planning step (:func:`mcnkit.explore.planners.decide`) when there is no path, the goal is reached, or the
+   robot drove ``replan_m`` since the last one; it plans on the best particle's map, from the robot's *estimated*
+   pose (the best particle's pose at the last filter update plus the odometry since).  That map is the SLAM's own,
+   but for one thing: a beam that returned nothing saw free space out to the sensor's range (the SLAM skips such
+   beams; a robot looking down a long corridor would otherwise never know it can go there);
+2. one frame of carrot following along the path from the estimated pose; the same commands move the true pose
+   (a move that would put the robot's disc into a wall of the ground truth is not made: a collision, then a replan);
+3. the odometry measures the true motion with the simulator's noise, the lidar scans from the true pose;
+4. FastSLAM steps on that frame; the coverage (:mod:`mcnkit.explore.coverage`) is updated from the true pose.
+
+It stops when no frontier is reachable (``explored``), the path budget is spent (``budget``), the coverage reached
+``stop_coverage`` (``coverage``) or the time ran out (``time``: three times the budget at full speed).  Goals the
+robot reached without their frontier going away, or got no closer to for ``stuck_s``, are blacklisted.
+
+Randomness: one seed gives the start pose, the sensor and odometry noise, the SLAM's and the sampler's streams
+(:class:`numpy.random.SeedSequence` children), the same for every planner.
+
+Example:
+    >>> ex = Explorer(plan_raster("procedural:1"), FrontierPlanner(), seed=0)  # doctest: +SKIP
+    >>> result = ex.run()                                                    # doctest: +SKIP
+    >>> result.stop_reason, result.coverage[-1]                              # doctest: +SKIP
+    ('explored', 0.98)
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.explore.config import ExploreConfig
+from mcnkit.explore.coverage import mark_seen, reachable_free
+from mcnkit.explore.planners import Decision, Planner, decide, planning_view
+from mcnkit.geometry import compose, relative
+from mcnkit.sim import (
+    PlanRaster,
+    SimConfig,
+    add_range_noise,
+    cast_rays,
+    draw_odometry_bias,
+    drive,
+    follow_step,
+    integrate_odometry,
+    noisy_motion,
+    path_done,
+    safe_region,
+)
+from mcnkit.slam.config import SlamConfig, UpdatesConfig
+from mcnkit.slam.fastslam import FastSlam
+from mcnkit.slam.lineage import LineageMap
+from mcnkit.types import Frame, Pose2D, Scan
+
+__all__ = ["EXPLORE_SLAM", "Explorer", "FrameRecord", "PlanStep", "planning_lineage", "seed_streams"]
+
+F64 = NDArray[np.float64]
+
+EXPLORE_SLAM = SlamConfig(updates=UpdatesConfig(linear_m=0.3, angular_rad=0.3))
+"""The SLAM of an exploring robot: a filter update (and so a map that shows the last scan) every 0.3 m or 0.3 rad,
+so a planning step sees what the robot saw where it stands."""
+
+
+def seed_streams(seed: int) -> tuple[np.random.Generator, np.random.Generator, int]:
+    """The world's generator (start pose, odometry, lidar), the SLAM's, and a seed for the sampler's."""
+    world, slam, sampler = np.random.SeedSequence(seed).spawn(3)
+    return np.random.default_rng(world), np.random.default_rng(slam), int(sampler.generate_state(1)[0])
+
+
+def planning_lineage(slam: FastSlam) -> tuple[LineageMap, float]:
+    """An empty :class:`LineageMap` with the ray casting of ``slam``'s maps (after its first frame), except that a
+    beam of ``no_return_m`` (the range a planner gives a beam that returned nothing: the sensor saw no wall within
+    its range) clears space out to just short of it and marks no wall; and that range."""
+    lidar = slam.lidar
+    if lidar is None:
+        raise RuntimeError("no scan processed yet")
+    max_range, usable = slam.beam_limits()
+    lineage = LineageMap(slam.config.resolution_m, lidar.angles_rad, lidar.base_to_laser.as_array(),
+                         max_range_m=max_range, usable_m=min(usable, max_range - 0.01),
+                         occ_thresh=slam.config.map.occ_thresh)
+    return lineage, max_range
+
+
+@dataclass(frozen=True)
+class FrameRecord:
+    """One frame of the loop."""
+
+    index: int
+    truth: F64
+    """(3,) true pose after the frame."""
+    estimate: F64
+    """(3,) the robot's estimated pose after the frame."""
+    path_length_m: float
+    """True distance driven so far."""
+    coverage: float
+    """Share of the reachable free space seen so far."""
+    decision: Decision | None = None
+    """The planning step made at the start of this frame, if any (only in the record :meth:`Explorer.step`
+    returns: :attr:`Explorer.records` keep none)."""
+
+
+@dataclass(frozen=True)
+class PlanStep:
+    """A planning step in brief."""
+
+    frame: int
+    """The frame it was made at."""
+    cpu_s: float
+    viewpoints: int
+    """Frontier viewpoints it chose from."""
+    goal_xy_m: F64 | None
+    gain_m2: float | None
+    """The chosen viewpoint's expected gain (0 for the frontier planner); None without a goal."""
+    cost_m: float | None
+
+    @classmethod
+    def of(cls, frame: int, d: Decision) -> PlanStep:
+        """The brief of decision ``d``."""
+        if d.choice is None:
+            return cls(frame, d.cpu_s, len(d.points), None, None, None)
+        return cls(frame, d.cpu_s, len(d.points), d.points.xy_m[d.choice].copy(), float(d.gain[d.choice]),
+                   float(d.points.cost_m[d.choice]))
+
+
+@dataclass
+class _Goal:
+    xy_m: F64
+    best_dist_m: float
+    since_progress_s: float = 0.0
+
+
+@dataclass
+class Explorer:
+    """The closed loop in one plan (see the module docstring); :meth:`step` one frame, :meth:`run` to the end."""
+
+    raster: PlanRaster
+    planner: Planner
+    config: ExploreConfig = field(default_factory=ExploreConfig)
+    sim: SimConfig = field(default_factory=SimConfig)
+    slam_config: SlamConfig = EXPLORE_SLAM
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        self.rng, slam_rng, self.sampler_seed = seed_streams(self.seed)
+        safe, self._clearance = safe_region(self.raster, self.sim)
+        cells = np.flatnonzero(safe)
+        rc = np.array(divmod(int(cells[self.rng.integers(cells.size)]), safe.shape[1]), np.int64)
+        xy = self.raster.grid.cell_to_world(rc)
+        pose = np.array([xy[0], xy[1], self.rng.uniform(-np.pi, np.pi)])
+        self.spec = self.sim.lidar.spec()
+        self._mount = self.spec.base_to_laser.as_array()
+        self._bias = draw_odometry_bias(self.sim.odometry, self.rng)
+        self.reachable = reachable_free(self.raster, safe, xy, self.spec.range_max_m, self.config.coverage_rays,
+                                        self.config.coverage_lattice_m)
+        self._n_reachable = max(int(self.reachable.sum()), 1)
+        self.seen = np.zeros_like(self.reachable)
+        self.slam = FastSlam(self.slam_config, slam_rng)
+        self.truth, self.odom, self.estimate = pose.copy(), pose.copy(), pose.copy()
+        self._anchor = (pose.copy(), pose.copy())  # (best pose, odometry) at the last filter update
+        self.path_length_m = 0.0
+        self.n_frames = 0
+        self.n_collisions = 0
+        self.blacklist: list[F64] = []
+        self.plans: list[PlanStep] = []
+        """Every planning step in brief (its CPU time, goal, gain and cost)."""
+        self.last_decision: Decision | None = None
+        """The last planning step in full (a run keeps only that one: a decision holds whole maps)."""
+        self.stop_reason: str | None = None
+        self.lineage: LineageMap | None = None
+        """The map the robot plans on: the best particle's, its no-return beams clearing space to the range."""
+        self._planning_ranges: list[NDArray[np.float32]] = []
+        self._no_return_m = 0.0
+        self._path: F64 | None = None
+        self._carrot = 0
+        self._since_plan_m = 0.0
+        self._goal: _Goal | None = None
+        self._cpu_s = 0.0
+        self.records: list[FrameRecord] = []
+        self._sense()
+
+    # -- the loop ---------------------------------------------------------------------------------------------
+
+    @property
+    def done(self) -> bool:
+        """True once the run stopped (:attr:`stop_reason` says why)."""
+        return self.stop_reason is not None
+
+    @property
+    def coverage(self) -> float:
+        """Share of the reachable free space seen so far."""
+        return float((self.seen & self.reachable).sum()) / self._n_reachable
+
+    def run(self) -> list[FrameRecord]:
+        """Steps until the run stops; every frame's record."""
+        while not self.done:
+            self.step()
+        return self.records
+
+    def step(self) -> FrameRecord:
+        """One frame (see the module docstring); after the run stopped, the last record again."""
+        if self.done:
+            return self.records[-1]
+        t0 = time.process_time()
+        decision = self._maybe_plan()
+        if self._path is not None and not self.done:
+            self._move()
+            self._sense()
+        self._check_stop()
+        self._cpu_s += time.process_time() - t0
+        record = FrameRecord(self.n_frames - 1, self.truth.copy(), self.estimate.copy(), self.path_length_m,
+                             self.coverage, decision)
+        # kept without its decision (see last_decision); the last one repeats its frame when the run stopped at a
+        # planning step
+        self.records.append(replace(record, decision=None))
+        return record
+
+    @property
+    def cpu_s(self) -> float:
+        """CPU time of the loop so far (simulation included) [s]."""
+        return self._cpu_s
+
+    # -- internals --------------------------------------------------------------------------------------------
+
+    def _maybe_plan(self) -> Decision | None:
+        cfg = self.config
+        goal = self._goal
+        reached = goal is not None and float(np.hypot(*(goal.xy_m - self.estimate[:2]))) < cfg.goal_tolerance_m
+        if self._path is not None and path_done(self.estimate, self._path, self._carrot):
+            reached = True
+        stuck = goal is not None and goal.since_progress_s > cfg.stuck_s
+        if goal is not None and (reached or stuck):
+            self.blacklist.append(goal.xy_m.copy())  # a frontier still there after this is one it cannot see
+        if not (self._path is None or reached or stuck or self._since_plan_m >= cfg.replan_m):
+            return None
+        decision = self._plan()
+        self.last_decision = decision
+        self.plans.append(PlanStep.of(self.n_frames - 1, decision))
+        if decision.choice is None or decision.path_m is None:
+            self._path, self._goal = None, None
+            self.stop_reason = "explored"
+            return decision
+        goal_xy = decision.points.xy_m[decision.choice]
+        if self._goal is None or np.hypot(*(goal_xy - self._goal.xy_m)) > cfg.goal_tolerance_m:
+            self._goal = _Goal(goal_xy.copy(), float(np.hypot(*(goal_xy - self.estimate[:2]))))
+        path = decision.path_m
+        self._path = path if len(path) > 1 else np.concatenate([path, path])
+        self._carrot = 0
+        self._since_plan_m = 0.0
+        return decision
+
+    def _plan(self) -> Decision:
+        t0 = time.process_time()
+        if self.lineage is None:
+            self.lineage, self._no_return_m = planning_lineage(self.slam)
+        updates = self.slam.update_ranges
+        for r in updates[len(self._planning_ranges) :]:
+            self._planning_ranges.append(np.where(np.isfinite(r), r, np.float32(self._no_return_m)))
+        self.lineage.sync(self.slam.update_poses(), self._planning_ranges)
+        view = planning_view(self.lineage, self.estimate, self.config.plan_resolution_m)
+        black = np.asarray(self.blacklist).reshape(-1, 2)
+        d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black)
+        return replace(d, cpu_s=time.process_time() - t0)
+
+    def _move(self) -> None:
+        assert self._path is not None
+        h = 1.0 / self.sim.scan_rate_hz / 5
+        _, self._carrot, commands = follow_step(self.estimate, self._path, self._carrot, self.sim)
+        truth = self.truth
+        for v, w in commands:
+            truth = drive(truth, v, w, h)
+        rc = self.raster.grid.world_to_cell(truth[:2])
+        inside = self.raster.grid.contains(rc)
+        if not inside or self._clearance[rc[0], rc[1]] < self.sim.robot_radius_m:
+            self.n_collisions += 1  # the robot stops short of the wall and plans again
+            truth = self.truth.copy()
+            self._path = None
+        step = relative(self.truth, truth)
+        moved = float(np.hypot(step[0], step[1]))
+        self.path_length_m += moved
+        self._since_plan_m += moved
+        normals = self.rng.standard_normal((3, 1))
+        self.odom = integrate_odometry(self.odom, *noisy_motion(step[None], normals, self._bias, self.sim.odometry))[-1]
+        self.truth = truth
+        if self._goal is not None:
+            dist = float(np.hypot(*(self._goal.xy_m - self.estimate[:2])))
+            if dist < self._goal.best_dist_m - 0.1:
+                self._goal.best_dist_m, self._goal.since_progress_s = dist, 0.0
+            else:
+                self._goal.since_progress_s += 1.0 / self.sim.scan_rate_hz
+
+    def _sense(self) -> None:
+        laser = compose(self.truth, self._mount)
+        ranges = cast_rays(self.raster.free, self.raster.grid, laser[None], self.spec)
+        add_range_noise(ranges, self.sim.lidar, self.rng)
+        stamp = self.sim.start_stamp_ns + int(round(self.n_frames * 1e9 / self.sim.scan_rate_hz))
+        self.last_frame = Frame(stamp, Scan(ranges[0], self.spec), Pose2D.from_array(self.odom))
+        s = self.slam.step(self.last_frame)
+        if s.updated:
+            self._anchor = (s.best_pose.copy(), self.odom.copy())
+        self.estimate = compose(self._anchor[0], relative(self._anchor[1], self.odom))
+        mark_seen(self.raster.free, self.raster.grid, self.seen, laser[None, :2], self.spec.range_max_m,
+                  self.config.coverage_rays)
+        self.n_frames += 1
+        if not self.records:
+            self.records.append(FrameRecord(0, self.truth.copy(), self.estimate.copy(), 0.0, self.coverage))
+
+    def _check_stop(self) -> None:
+        if self.done:
+            return
+        cfg = self.config
+        max_frames = int(3 * cfg.budget_m / self.sim.speed_m_s * self.sim.scan_rate_hz)
+        if self.path_length_m >= cfg.budget_m:
+            self.stop_reason = "budget"
+        elif self.coverage >= cfg.stop_coverage:
+            self.stop_reason = "coverage"
+        elif self.n_frames >= max_frames:
+            self.stop_reason = "time"

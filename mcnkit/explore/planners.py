@@ -1,0 +1,161 @@
+"""The two planners and the planning step they share.
+
+A planning step (:func:`decide`) pools the best particle's map onto the planning grid (:func:`planning_view`),
+finds the frontier segments and their viewpoints, runs one Dijkstra from the robot (:mod:`mcnkit.explore.paths`),
+lets the planner score the viewpoints and takes the best score (ties: the cheapest to reach), then traces the path.
+
+* :class:`FrontierPlanner` — the nearest reachable frontier (Yamauchi 1997): score = −path cost.
+* :class:`McnPlanner` — K completions of the map (:func:`mcnkit.explore.predict.predict`), the information a scan
+  from each viewpoint is expected to bring in them (:mod:`mcnkit.explore.gain`), traded against the path cost.
+
+Both see the same map, frontiers, viewpoints and path costs; only the score differs.
+
+Example:
+    >>> view = planning_view(lineage, pose, 0.1)                                        # doctest: +SKIP
+    >>> d = decide(view, FrontierPlanner(), ExploreConfig(), 0.2, np.zeros((0, 2)))       # doctest: +SKIP
+    >>> d.path_m.shape                                                                  # doctest: +SKIP
+    (31, 2)
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mcnkit.explore.config import ExploreConfig, GainConfig
+from mcnkit.explore.frontiers import Frontiers, Viewpoints, find_frontiers, planning_map, viewpoints
+from mcnkit.explore.gain import cell_weights, sample_walls, trade_off, visible_gains
+from mcnkit.explore.paths import CostField, cost_field
+from mcnkit.slam.lineage import LineageMap
+from mcnkit.types import GridSpec
+
+if TYPE_CHECKING:
+    import torch
+
+    from mcnkit.completion.nets import CompletionNet
+    from mcnkit.explore.predict import Prediction
+
+__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "planning_view"]
+
+F64 = NDArray[np.float64]
+F32 = NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class PlanningView:
+    """What a planner sees: the best particle's map pooled on the planning grid, the robot's estimated pose and the
+    map itself (for the completions' window)."""
+
+    grid: GridSpec
+    image: F32
+    """(H, W) ternary planning map (:func:`mcnkit.explore.frontiers.planning_map`)."""
+    pose: F64
+    """(3,) the robot's estimated pose."""
+    lineage: LineageMap
+
+
+def planning_view(lineage: LineageMap, pose: F64, resolution_m: float) -> PlanningView:
+    """The map of ``lineage`` pooled onto a grid of ``resolution_m`` covering what it saw and the robot, its thin
+    unknown cells made free (:func:`mcnkit.explore.frontiers.planning_map`)."""
+    x0, y0, x1, y1 = lineage.seen_bounds_m()
+    x0, x1 = min(x0, pose[0]) - resolution_m, max(x1, pose[0]) + resolution_m
+    y0, y1 = min(y0, pose[1]) - resolution_m, max(y1, pose[1]) + resolution_m
+    ox, oy = math.floor(x0 / resolution_m) * resolution_m, math.floor(y0 / resolution_m) * resolution_m
+    grid = GridSpec(resolution_m, ox, oy, math.ceil((x1 - ox) / resolution_m), math.ceil((y1 - oy) / resolution_m))
+    return PlanningView(grid, planning_map(lineage.pooled(grid)), np.asarray(pose, np.float64), lineage)
+
+
+class Planner(Protocol):
+    """Scores frontier viewpoints: ``(gain (V,), score (V,), prediction or None)``, higher scores first."""
+
+    name: str
+
+    def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]: ...
+
+
+class FrontierPlanner:
+    """The nearest reachable frontier: score = −path cost (no gain)."""
+
+    name = "frontier"
+
+    def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]:
+        """Zero gain, score −cost."""
+        return np.zeros(len(points)), -points.cost_m, None
+
+
+class McnPlanner:
+    """Viewpoints scored by the information the K sampled completions expect there, against the path cost."""
+
+    name = "mcn"
+
+    def __init__(self, net: CompletionNet, config: GainConfig, range_m: float, generator: torch.Generator) -> None:
+        self.net = net
+        self.config = config
+        self.range_m = float(range_m)
+        self.generator = generator
+
+    def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]:
+        """Expected gain (V,) [m²] and its trade-off against the path cost (V,); the prediction it came from."""
+        from mcnkit.explore.predict import predict
+
+        cfg = self.config
+        pred = predict(self.net, view.lineage, cfg, self.generator)
+        if len(points) == 0:
+            return np.zeros(0), np.zeros(0), pred
+        w = pred.window
+        origins = np.stack([(points.xy_m[:, 0] - w.origin_x_m) / w.resolution_m,
+                            (points.xy_m[:, 1] - w.origin_y_m) / w.resolution_m], 1)
+        walls = sample_walls(pred.samples, pred.partial, cfg.gain)
+        weight = cell_weights(pred.samples, pred.partial, w.resolution_m**2, cfg.gain)
+        gain = visible_gains(walls, weight, origins, cfg.beams, self.range_m / w.resolution_m).mean(axis=1)
+        return gain, trade_off(gain, points.cost_m, cfg.tradeoff, cfg.cost_lambda_per_m, cfg.cost_floor_m), pred
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One planning step: the frontiers, their viewpoints and scores, the choice and its path."""
+
+    map_image: F32
+    """(H, W) the planning map it planned on (on ``frontiers.grid``)."""
+    frontiers: Frontiers
+    points: Viewpoints
+    field: CostField
+    gain: F64
+    """(V,) expected gain of each viewpoint [m²] (zeros for the frontier planner)."""
+    score: F64
+    """(V,) the planner's score (higher is better)."""
+    choice: int | None
+    """Index of the chosen viewpoint; None when no frontier is reachable (exploration is over)."""
+    path_m: F64 | None
+    """(P, 2) path from the robot to the goal [m]."""
+    prediction: Prediction | None = None
+    cpu_s: float = 0.0
+    """CPU time of the step (map pooling, frontiers, Dijkstra, completions, gains, path) [s]."""
+
+    @property
+    def goal_xy_m(self) -> F64 | None:
+        """The chosen viewpoint [m], or None."""
+        return None if self.choice is None else self.points.xy_m[self.choice]
+
+
+def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_radius_m: float,
+           blacklist_xy_m: F64) -> Decision:
+    """One planning step (see the module docstring); paths keep ``robot_radius_m + config.plan_margin_m`` from the
+    map's walls."""
+    t0 = time.process_time()
+    frontiers = find_frontiers(view.image, view.grid, config)
+    field_ = cost_field(view.image, view.grid, view.pose[:2], robot_radius_m, config.plan_margin_m)
+    points = viewpoints(frontiers, field_, config, blacklist_xy_m)
+    gain, score, pred = planner.score(view, points)
+    choice = None
+    path = None
+    if len(points):
+        # best score; among equal scores the cheapest (points are sorted by cost, argmax takes the first)
+        choice = int(np.argmax(score))
+        path = field_.path_to(points.cells[choice])
+    return Decision(view.image, frontiers, points, field_, gain, score, choice, path, pred, time.process_time() - t0)

@@ -1,0 +1,52 @@
+"""The expected information of a viewpoint: ray casting through each sample's walls, cell weights, trade-offs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mcnkit.explore.gain import cell_weights, sample_walls, trade_off, visible_gains, visible_mask
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN
+
+
+def test_an_open_square_is_seen_whole_and_a_wall_hides_what_is_behind_it() -> None:
+    walls = np.zeros((2, 10, 10), bool)
+    walls[1, :, 6] = True  # sample 1: a wall at column 6
+    gains = visible_gains(walls, np.ones((10, 10)), np.array([[2.5, 5.5]]), n_beams=720, range_cells=30.0)
+    assert gains.shape == (1, 2)
+    assert gains[0, 0] == 100  # every cell
+    assert gains[0, 1] == 70  # columns 0-6: the wall is seen, what lies behind it is not
+    mask = visible_mask(walls[1], np.array([2.5, 5.5]), 720, 30.0)
+    assert mask[:, :7].all() and not mask[:, 7:].any()
+
+
+def test_range_and_weights_bound_the_gain() -> None:
+    walls = np.zeros((1, 21, 21), bool)
+    weight = np.zeros((21, 21))
+    weight[10, 10:] = 1.0  # the cells right of the origin, one of them per column
+    near = visible_gains(walls, weight, np.array([[10.5, 10.5]]), 360, range_cells=4.0)
+    assert near[0, 0] == 5  # columns 10-14: within four cells (plus the origin's own)
+    assert visible_gains(walls, weight, np.array([[10.5, 10.5]]), 360, 40.0)[0, 0] == 11
+
+
+def test_cell_weights() -> None:
+    partial = np.full((2, 2), UNKNOWN, np.float32)
+    partial[0, 0] = FREE
+    samples = np.stack([np.full((2, 2), OCCUPIED), np.full((2, 2), FREE)]).astype(np.float32)
+    samples[1, 1, 1] = OCCUPIED  # both samples say occupied at (1, 1)
+    unknown = cell_weights(samples, partial, 0.25, "unknown")
+    np.testing.assert_allclose(unknown, [[0.0, 0.25], [0.25, 0.25]])
+    np.testing.assert_allclose(cell_weights(samples, partial, 0.25, "disagreement"), [[0.0, 0.25], [0.25, 0.0]])
+    np.testing.assert_array_equal(cell_weights(samples, partial, 0.25, "observed"), unknown)
+    assert sample_walls(samples, partial, "unknown").shape == (2, 2, 2)
+    assert sample_walls(samples, partial, "observed").sum() == 0  # the map itself holds no wall
+    with pytest.raises(ValueError, match="unknown gain"):
+        cell_weights(samples, partial, 1.0, "bogus")
+
+
+def test_trade_offs() -> None:
+    gain, cost = np.array([10.0, 10.0, 20.0]), np.array([0.0, 4.0, 9.0])
+    np.testing.assert_allclose(trade_off(gain, cost, "ratio", 0.3, 1.0), [10.0, 2.0, 2.0])
+    np.testing.assert_allclose(trade_off(gain, cost, "exp", 0.5, 1.0), 10.0 * np.exp(-0.5 * cost) * [1, 1, 2])
+    with pytest.raises(ValueError, match="trade-off"):
+        trade_off(gain, cost, "bogus", 0.3, 1.0)

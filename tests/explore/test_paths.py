@@ -1,0 +1,53 @@
+"""Shortest paths on the known-free grid: costs, clearance, unreachable cells, the start snapped off a wall."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mcnkit.explore.paths import cost_field, traversable_cells
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec
+
+GRID = GridSpec(0.1, 0.0, 0.0, 60, 20)
+
+
+def _corridor() -> np.ndarray:
+    """A 6 m × 2 m free corridor walled all round (row 0, row 19, col 0, col 59 occupied)."""
+    image = np.full(GRID.shape, FREE, np.float32)
+    image[[0, -1], :] = OCCUPIED
+    image[:, [0, -1]] = OCCUPIED
+    return image
+
+
+def test_cost_along_a_corridor_is_its_length() -> None:
+    field = cost_field(_corridor(), GRID, np.array([1.05, 1.05]), robot_radius_m=0.2, margin_m=0.05)
+    assert field.start == (10, 10)
+    # the middle row is far from the walls (clearance >= 0.9 m): one unit per cell, 0.1 m
+    assert field.cost_m[10, 50] == pytest.approx(4.0)
+    # within robot radius + 0.4 m of a wall a cell costs more (up to 5 units): paths keep to the middle
+    assert field.cost_m[10, 5] == pytest.approx(0.5 + 0.05)
+    path = field.path_to(np.array([10, 50]))
+    np.testing.assert_allclose(path[0], [1.05, 1.05])
+    np.testing.assert_allclose(path[-1], [5.05, 1.05])
+    assert np.all(np.hypot(*np.diff(path, axis=0).T) <= 0.1 * np.sqrt(2) + 1e-9)
+
+
+def test_walls_and_unknown_cells_are_not_traversable() -> None:
+    image = _corridor()
+    image[:, 30] = OCCUPIED  # a wall across the corridor
+    image[5:15, 40:45] = UNKNOWN
+    traversable, clearance = traversable_cells(image, 0.1, 0.2, 0.05)
+    assert not traversable[:, 28:33].any()  # within 0.25 m of the wall
+    assert not traversable[5:15, 40:45].any() and clearance[10, 42] > 0.5  # unknown: no obstacle, yet not free
+    field = cost_field(image, GRID, np.array([0.55, 1.05]), 0.2, 0.05)
+    assert np.isinf(field.cost_m[:, 31:]).all() and np.isfinite(field.cost_m[10, 20])
+    with pytest.raises(ValueError, match="not reachable"):
+        field.path_to(np.array([10, 50]))
+
+
+def test_start_next_to_a_wall_snaps_to_the_nearest_traversable_cell() -> None:
+    field = cost_field(_corridor(), GRID, np.array([0.15, 0.15]), 0.2, 0.05)
+    assert field.start is not None and field.traversable[field.start]
+    assert np.hypot(field.start[0] - 1, field.start[1] - 1) * 0.1 <= 0.6
+    nowhere = cost_field(np.full(GRID.shape, OCCUPIED, np.float32), GRID, np.array([1.0, 1.0]), 0.2, 0.05)
+    assert nowhere.start is None and np.isinf(nowhere.cost_m).all()
