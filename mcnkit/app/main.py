@@ -44,6 +44,8 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
              "score a TUM trajectory (relations error, ATE/RPE), or write a log's ground truth as TUM"),
     "simulate": ("mcnkit.app.commands.simulate", "add_simulate_parser",
                  "simulate a robot with a lidar on a floor plan and write a log"),
+    "explore": ("mcnkit.app.commands.explore", "add_explore_parser",
+                "a simulated robot explores a floor plan on its own (frontier or mcn planner)"),
     "data": ("mcnkit.app.commands.data", "add_data_parser", "install datasets, build training pairs, draw example pairs"),
     "train": ("mcnkit.app.commands.train", "add_train_parser", "train a map completion network (U-net or pix2pix)"),
     "experiment": ("mcnkit.app.commands.experiment", "add_experiment_parser",

@@ -1,5 +1,6 @@
 """How a recording is laid out in the Rerun viewer: one blueprint for SLAM runs, one for MCN-SLAM runs (from
-their number of ranks and samples), and the choice between them for a finished recording."""
+their number of ranks and samples), one for exploration runs, and the choice between them for a finished
+recording."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ import re
 
 import rerun.blueprint as rrb
 
-__all__ = ["APPLICATION_ID", "CLASSES", "METRICS", "SERIES", "mcn_blueprint", "recording_blueprint", "slam_blueprint"]
+__all__ = ["APPLICATION_ID", "CLASSES", "METRICS", "SERIES", "explore_blueprint", "mcn_blueprint", "recording_blueprint",
+           "slam_blueprint"]
 
 APPLICATION_ID = "mcnkit"
 CLASSES = [(0, "free", (235, 235, 235)), (1, "unknown", (128, 128, 128)), (2, "occupied", (20, 20, 20))]
@@ -81,9 +83,52 @@ def mcn_blueprint(ranks: int, samples: int) -> rrb.Blueprint:
     )
 
 
+_PLAN_OVERLAY = ("/world/plan/viewpoints", "/world/plan/goal", "/world/plan/path", "/world/robot/estimate")
+"""What every prediction view of an exploration recording also shows: the viewpoints, the goal, its path, the
+robot."""
+
+
+def explore_blueprint(samples: int) -> rrb.Blueprint:
+    """Exploration layout: the map the robot plans on with its frontiers, viewpoints (scored), goal, path, scan and
+    trajectory on the left, the coverage curve and the planning CPU under it; on the right (``samples`` > 0) the
+    completions' window: the SLAM map on it, the samples' disagreement, the chosen goal's expected view and the K
+    samples, each with the viewpoints and goal on top; ground truth (with the reachable space and what was seen),
+    events and config in tabs."""
+    explore = rrb.Spatial2DView(name="exploration", origin="/",
+                                contents=["+ /world/**", "- /world/pred/**", "- /world/map/gt/**",
+                                          "- /world/map/seen/**", "- /world/robot/truth/**"])
+    left = rrb.Vertical(
+        explore,
+        rrb.Horizontal(rrb.TimeSeriesView(name="coverage", origin="/metrics/coverage"),
+                       rrb.TimeSeriesView(name="planning CPU [ms]", origin="/metrics/plan_cpu_ms")),
+        row_shares=[3, 1],
+    )
+    tabs = rrb.Tabs(rrb.Spatial2DView(name="ground truth", origin="/",
+                                      contents=["+ /world/map/gt/**", "+ /world/map/seen/**", "+ /world/robot/truth/**",
+                                                "+ /world/plan/goal"]),
+                    rrb.TextLogView(name="events", origin="/log"),
+                    rrb.TextDocumentView(name="config", origin="/config"))
+    right: rrb.Container = tabs
+    if samples > 0:
+        views = [_map_view("m_t (window)", "/world/pred/window/partial", *_PLAN_OVERLAY),
+                 _map_view("disagreement", "/world/pred/window/disagreement", *_PLAN_OVERLAY),
+                 _map_view("goal's expected view", "/world/pred/window/view", *_PLAN_OVERLAY)]
+        views += [_map_view(f"s{k}", f"/world/pred/window/sample{k}", *_PLAN_OVERLAY) for k in range(samples)]
+        right = rrb.Vertical(rrb.Grid(*views, grid_columns=4 if len(views) > 9 else 3), tabs, row_shares=[3, 1])
+    return rrb.Blueprint(
+        rrb.Horizontal(left, right, column_shares=[3, 2] if samples > 0 else [2, 1]),
+        rrb.TimePanel(timeline="step", expanded=True),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+    )
+
+
 def recording_blueprint(entity_paths: set[str]) -> rrb.Blueprint:
-    """The layout for a recording with these entities: :func:`mcn_blueprint` with its (R, K) when it holds MCN
-    completions, else :func:`slam_blueprint`."""
+    """The layout for a recording with these entities: :func:`explore_blueprint` for an exploration run,
+    :func:`mcn_blueprint` with its (R, K) when it holds MCN completions, else :func:`slam_blueprint`."""
+    if "/world/plan/goal" in entity_paths:
+        samples = [re.fullmatch(r"/world/pred/window/sample(\d+)", e) for e in entity_paths]
+        return explore_blueprint(max((int(m.group(1)) + 1 for m in samples if m), default=0))
     found = [re.fullmatch(r"/world/mcn/rank(\d+)/window/sample(\d+)", e) for e in entity_paths]
     pairs = [(int(m.group(1)), int(m.group(2))) for m in found if m]
     if not pairs:

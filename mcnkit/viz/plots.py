@@ -14,9 +14,12 @@ from numpy.typing import NDArray
 from mcnkit.types import TernaryMap
 
 if TYPE_CHECKING:
+    from mcnkit.explore.planners import Decision
+    from mcnkit.explore.predict import Prediction
     from mcnkit.mcn import Completion
 
-__all__ = ["TERNARY_CMAP", "completion_figure", "consistency_figure", "image_row", "plot_slam_state", "plot_ternary"]
+__all__ = ["TERNARY_CMAP", "completion_figure", "consistency_figure", "coverage_figure", "image_row", "plot_decision",
+           "plot_prediction", "plot_slam_state", "plot_ternary"]
 
 # free 0.0 -> light, unknown 0.5 -> grey, occupied 1.0 -> black (the viewer's AnnotationContext colours)
 TERNARY_CMAP = ListedColormap([(235 / 255,) * 3, (128 / 255,) * 3, (20 / 255,) * 3])
@@ -137,4 +140,69 @@ def consistency_figure(
         ax.set_title("\n".join(title), fontsize=9)
     if mappable is not None:
         fig.colorbar(mappable, ax=list(axes), shrink=0.8, label="translation error on the relation (m)")
+    return fig
+
+
+def plot_decision(ax: Axes, decision: Decision, trajectory_xy: NDArray[np.float64] | None = None,
+                  title: str = "") -> None:
+    """One planning step: the map planned on, the frontier cells coloured by their segment's score (yellow best),
+    the viewpoints (size by gain), the chosen goal (magenta star) and its path, the trajectory so far (blue)."""
+    d = decision
+    plot_ternary(ax, TernaryMap(d.map_image, d.frontiers.grid))
+    f, p = d.frontiers, d.points
+    if f.n_segments and len(p):
+        seg_score = np.full(f.n_segments, np.nan)
+        seg_score[p.segment] = d.score
+        xy = f.xy_m()
+        rank = np.argsort(np.argsort(d.score)) / max(len(p) - 1, 1)
+        seg_rank = np.full(f.n_segments, np.nan)
+        seg_rank[p.segment] = rank
+        ax.scatter(xy[:, 0], xy[:, 1], s=2, c=seg_rank[f.segment], cmap="viridis", vmin=0, vmax=1, zorder=3)
+        gain = d.gain / max(float(d.gain.max()), 1e-9) if d.gain.any() else np.full(len(p), 0.3)
+        ax.scatter(p.xy_m[:, 0], p.xy_m[:, 1], s=15 + 120 * gain, c=rank, cmap="viridis", vmin=0, vmax=1,
+                   edgecolors="k", linewidths=0.5, zorder=4)
+    if trajectory_xy is not None and len(trajectory_xy):
+        ax.plot(trajectory_xy[:, 0], trajectory_xy[:, 1], color="tab:blue", lw=1.2, zorder=2)
+    goal = d.goal_xy_m
+    if goal is not None and d.path_m is not None:
+        ax.plot(d.path_m[:, 0], d.path_m[:, 1], color="m", lw=1.5, zorder=5)
+        ax.scatter([goal[0]], [goal[1]], marker="*", s=180, color="m", edgecolors="k", zorder=6)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    if title:
+        ax.set_title(title, fontsize=9)
+
+
+def plot_prediction(axes: Sequence[Axes], prediction: Prediction, goal_xy: NDArray[np.float64] | None = None) -> None:
+    """The completions' window: the SLAM map on it, the samples' disagreement, then as many samples as there are
+    axes left (the goal marked on each)."""
+    w = prediction.window
+    extent = (w.origin_x_m, w.origin_x_m + w.width * w.resolution_m, w.origin_y_m, w.origin_y_m + w.height * w.resolution_m)
+    plot_ternary(axes[0], TernaryMap(prediction.partial, w), "m_t on the window")
+    axes[1].imshow(prediction.disagreement, origin="lower", cmap="magma", vmin=0, vmax=1, extent=extent,
+                   interpolation="nearest")
+    axes[1].set_title("disagreement 4p(1-p)")
+    for k, ax in enumerate(axes[2:]):
+        if k < len(prediction.samples):
+            plot_ternary(ax, TernaryMap(prediction.samples[k], w), f"sample {k}")
+        else:
+            ax.axis("off")
+    for ax in axes:
+        if goal_xy is not None:
+            ax.scatter([goal_xy[0]], [goal_xy[1]], marker="*", s=90, color="m", edgecolors="k", zorder=5)
+        ax.set_xticks([])
+        ax.set_yticks([])
+
+
+def coverage_figure(curves: Mapping[str, tuple[NDArray[np.float64], NDArray[np.float64]]], level: float = 0.9) -> Figure:
+    """Coverage of the reachable free space against the path driven, one line per run (name -> (path, coverage))."""
+    fig = Figure(figsize=(6.0, 3.6), layout="constrained")
+    ax = fig.subplots()
+    for name, (path, cov) in curves.items():
+        reached = np.flatnonzero(cov >= level)
+        label = name if not len(reached) else f"{name}: {level:.0%} at {path[reached[0]]:.1f} m"
+        ax.plot(path, cov, label=label)
+    ax.axhline(level, color="0.6", lw=0.8, ls=":")
+    ax.set(xlabel="path driven [m]", ylabel="coverage", ylim=(0, 1.02))
+    ax.legend(loc="lower right")
     return fig
