@@ -9,9 +9,15 @@ Detection (each overridable in :func:`mcnkit.io.open_log`):
 
 Frames: scans and odometry are read together in record order; each scan's odometry is interpolated at the
 scan's header stamp between the two odometry poses around it.  Scans whose stamp went backwards, that have
-a different beam count, a header stamp far (``STAMP_TOLERANCE_S``) from their record time, or that lie more
-than ``max_odom_gap_s`` outside the odometry stream are skipped and counted in the one warning of
-:func:`mcnkit.io.plausible.plausible_frames`, which then checks that every frame is physically plausible.
+a different beam count, or a header stamp far (``STAMP_TOLERANCE_S``) from their record time are skipped and
+counted in the one warning of :func:`mcnkit.io.plausible.plausible_frames`, which then checks that every frame is
+physically plausible.
+
+**Where odometry is missing** the motion is unknown, not zero: a scan farther than ``max_odom_gap_s`` from every
+odometry sample (before the stream starts, after it ends, or in a gap of it) is a frame whose motion is unknown
+(``Frame.odom_known`` False), and so is the first scan after such a stretch (its motion since the scan before is
+unknown too); they are counted in one warning.  A log without any odometry (no Odometry topic, no odom->base
+transform) gives frames that all say so: it is read lidar-only (:attr:`~mcnkit.io.base.LogReader.lidar_only`).
 
 Header stamps are judged against the record times: the offset ``stamp - record time`` of each message is
 compared with the median offset of the last 15 messages of its stream (seeded with the first ones), so a clock
@@ -34,7 +40,7 @@ import numpy as np
 from mcnkit.geometry import compose, quaternion_to_yaw
 from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
 from mcnkit.io.decode import MessageDecoder
-from mcnkit.io.errors import PARSE_ERRORS, LogError, as_log_error
+from mcnkit.io.errors import PARSE_ERRORS, LogError, as_log_error, warn_skipped
 from mcnkit.io.plausible import check_spec, spec_problem
 from mcnkit.io.sources import Connection, RawSource
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
@@ -289,46 +295,35 @@ class BagLog(LogReader):
         self.check_frames()
         scan_topic = self._require_scan()
         spec = self.lidar_spec
+        if not self.odom_source:
+            yield from self._scan_only_frames(scan_topic, spec, skipped)
+            return
         odom_topic = "/tf" if self.odom_source.startswith("tf:") else self.odom_source
         scan_check, odom_check = self._stamp_checks(scan_topic, odom_topic)
         odom_t: deque[int] = deque(maxlen=256)
         odom_p: deque[tuple[float, float, float]] = deque(maxlen=256)
         pending: deque[tuple[int, np.ndarray, int]] = deque()  # (stamp, ranges, record time)
+        last = Pose2D()  # the odometry of the last frame (repeated by a frame whose motion is unknown)
+        gap = False  # the last frame had no odometry: the next one's motion is unknown too
+        unknown = frames = 0
 
-        def emit(stamp: int, ranges: np.ndarray, _t: int) -> Frame | None:
-            n = len(odom_t)
-            if n == 0:
-                return None
-            if n >= 2 and odom_t[-2] <= stamp <= odom_t[-1]:  # the usual case: the last two samples bracket it
-                i = n - 1
-            else:
-                i = bisect.bisect_left(odom_t, stamp)
-            if i == 0:
-                if odom_t[0] - stamp > self._max_gap_ns:
-                    return None
-                pose = odom_p[0]
-            elif i == n:
-                if stamp - odom_t[-1] > self._max_gap_ns:
-                    return None
-                pose = odom_p[-1]
-            else:
-                (x0, y0, a0), (x1, y1, a1) = odom_p[i - 1], odom_p[i]
-                u = (stamp - odom_t[i - 1]) / (odom_t[i] - odom_t[i - 1])
-                da = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi
-                a = (a0 + u * da + math.pi) % (2 * math.pi) - math.pi
-                pose = (x0 + u * (x1 - x0), y0 + u * (y1 - y0), a)
-            return Frame(stamp, Scan(ranges, spec), Pose2D(*pose))
+        def emit(stamp: int, ranges: np.ndarray, _t: int) -> Frame:
+            nonlocal last, gap, unknown, frames
+            pose = self._odometry_at(stamp, odom_t, odom_p)
+            frames += 1
+            if pose is None:
+                unknown += 1
+                gap = True
+                return Frame(stamp, Scan(ranges, spec), last, False)
+            known, gap = not gap, False
+            unknown += not known
+            last = Pose2D(*pose)
+            return Frame(stamp, Scan(ranges, spec), last, known)
 
         for conn, t, raw in self._src.messages([scan_topic, odom_topic]):
             if conn.topic == scan_topic:
-                s = self._decoded_scan(conn, t, raw)
-                if s is None:
-                    skipped["damaged message"] += 1
-                elif len(s[1]) != spec.n_beams:
-                    skipped["different beam count"] += 1
-                elif not scan_check.ok(s[0] - t):
-                    skipped["stamp far from its record time"] += 1
-                else:
+                s = self._scan_ok(conn, t, raw, spec.n_beams, scan_check, skipped)
+                if s is not None:
                     pending.append((s[0], s[1], t))
             else:
                 samples = self._decoded_odom(conn, t, raw)
@@ -346,17 +341,60 @@ class BagLog(LogReader):
                         odom_p.append(sample[1:])
             # a scan waits for the odometry after its stamp, but not for longer than _PENDING_NS of the log
             while pending and ((odom_t and odom_t[-1] >= pending[0][0]) or t - pending[0][2] > _PENDING_NS):
-                frame = emit(*pending.popleft())
-                if frame is None:
-                    skipped["no odometry near its stamp"] += 1
-                else:
-                    yield frame
+                yield emit(*pending.popleft())
         while pending:
-            frame = emit(*pending.popleft())
-            if frame is None:
-                skipped["no odometry near its stamp"] += 1
-            else:
-                yield frame
+            yield emit(*pending.popleft())
+        if unknown:
+            warn_skipped(self.path, f"no odometry within {self._max_gap_ns / 1e9:g} s of {unknown} of {frames} scans "
+                                    "(or just after such a stretch): read as unknown motion")
+
+    def _odometry_at(self, stamp: int, odom_t: deque[int], odom_p: deque[tuple[float, float, float]]
+                     ) -> tuple[float, float, float] | None:
+        """The odometry interpolated at ``stamp`` (None: no sample within ``max_odom_gap_s``)."""
+        n = len(odom_t)
+        if n == 0:
+            return None
+        if n >= 2 and odom_t[-2] <= stamp <= odom_t[-1]:  # the usual case: the last two samples bracket it
+            i = n - 1
+        else:
+            i = bisect.bisect_left(odom_t, stamp)
+        if i == 0:
+            return odom_p[0] if odom_t[0] - stamp <= self._max_gap_ns else None
+        if i == n:
+            return odom_p[-1] if stamp - odom_t[-1] <= self._max_gap_ns else None
+        t0, t1 = odom_t[i - 1], odom_t[i]
+        if min(stamp - t0, t1 - stamp) > self._max_gap_ns and t1 - t0 > 2 * self._max_gap_ns:
+            return None  # a gap in the odometry stream
+        (x0, y0, a0), (x1, y1, a1) = odom_p[i - 1], odom_p[i]
+        u = (stamp - t0) / (t1 - t0)
+        da = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi
+        a = (a0 + u * da + math.pi) % (2 * math.pi) - math.pi
+        return x0 + u * (x1 - x0), y0 + u * (y1 - y0), a
+
+    def _scan_ok(self, conn: Connection, t: int, raw: bytes | memoryview, n_beams: int, check: _StampCheck,
+                 skipped: Counter[str]) -> tuple[int, np.ndarray] | None:
+        """A scan's stamp and ranges, or None (counted in ``skipped``) when it cannot be a frame."""
+        s = self._decoded_scan(conn, t, raw)
+        if s is None:
+            skipped["damaged message"] += 1
+        elif len(s[1]) != n_beams:
+            skipped["different beam count"] += 1
+        elif not check.ok(s[0] - t):
+            skipped["stamp far from its record time"] += 1
+        else:
+            return s
+        return None
+
+    def _scan_only_frames(self, scan_topic: str, spec: LidarSpec, skipped: Counter[str]) -> Iterator[Frame]:
+        """A log without odometry: every frame's motion is unknown (its odometry the origin)."""
+        check = _StampCheck()
+        for conn, t, raw in self._src.messages([scan_topic]):
+            if (s := self._decoded_scan(conn, t, raw)) is not None and check.seed(s[0] - t):
+                break
+        origin = Pose2D()
+        for conn, t, raw in self._src.messages([scan_topic]):
+            if (s := self._scan_ok(conn, t, raw, spec.n_beams, check, skipped)) is not None:
+                yield Frame(s[0], Scan(s[1], spec), origin, False)
 
     def ground_truth(self) -> Trajectory | None:
         """Poses from a topic whose name says ground truth (Odometry or PoseStamped)."""

@@ -12,8 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from mcnkit.io.errors import LogError
-from mcnkit.io.plausible import plausible_frames
+from mcnkit.io.plausible import plausible_frames, without_odometry
 from mcnkit.types import Frame, LidarSpec, Trajectory
 
 __all__ = ["GroundTruthMap", "LogReader", "TopicInfo"]
@@ -50,6 +49,9 @@ class LogReader(ABC):
     format: str
     laser_lines: int | None = None
     """How many laser records the log holds for the scan source, read or not (text logs; None: not counted)."""
+    odometry: str = "use"
+    """``"use"``: frames carry the log's odometry; ``"ignore"``: read the log as if it had none (every frame's
+    motion unknown, its odometry frozen at the origin), so that any log can be run lidar-only."""
 
     @property
     @abstractmethod
@@ -71,6 +73,12 @@ class LogReader(ABC):
     def lidar_spec(self) -> LidarSpec:
         """The scanner of the scan topic (from its first message), mount offset included."""
 
+    @property
+    def lidar_only(self) -> bool:
+        """True when the frames carry no odometry: the log has none, or it is ignored (``odometry="ignore"``).
+        Every frame then says its motion is unknown (``Frame.odom_known`` False) and repeats the origin."""
+        return self.odometry == "ignore" or not self.odom_source
+
     def frames(self) -> Iterator[Frame]:
         """Time-ordered frames: scan, stamp and odometry at that stamp, each one physically plausible.
 
@@ -79,7 +87,10 @@ class LogReader(ABC):
         with a :class:`~mcnkit.io.errors.LogError` when nothing usable remains.
         """
         skipped: Counter[str] = Counter()
-        yield from plausible_frames(self.path, self._read_frames(skipped), skipped)
+        frames = self._read_frames(skipped)
+        if self.odometry == "ignore":
+            frames = without_odometry(frames)
+        yield from plausible_frames(self.path, frames, skipped)
 
     @abstractmethod
     def _read_frames(self, skipped: Counter[str]) -> Iterator[Frame]:
@@ -90,10 +101,8 @@ class LogReader(ABC):
         """First and last message time in the log (ns)."""
 
     def check_frames(self) -> None:
-        """Raises :class:`~mcnkit.io.errors.LogError` now if ``frames()`` cannot start (no laser, no odometry)."""
+        """Raises :class:`~mcnkit.io.errors.LogError` now if ``frames()`` cannot start (no usable laser)."""
         self.lidar_spec  # noqa: B018 - raises when there is no usable scan topic
-        if not self.odom_source:
-            raise LogError(self.path, "no odometry: no nav_msgs/Odometry topic and no odom->base transform on /tf")
 
     def ground_truth(self) -> Trajectory | None:
         """The ground-truth trajectory, when the log has one."""

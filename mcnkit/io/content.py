@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from mcnkit.io.base import GroundTruthMap
@@ -18,17 +18,20 @@ FORMATS = ("ros1", "ros2-sqlite3", "ros2-mcap", "mcap")
 class LogContent:
     """Everything :func:`mcnkit.io.write_log` writes.
 
-    * ``frames``: one LaserScan on ``scan_topic`` (header stamp = ``stamp_ns``, frame ``laser``), one
-      nav_msgs/Odometry on ``odom_topic`` and one ``odom → base_link`` transform on ``/tf`` per frame;
-      the scanner's mount (``spec.base_to_laser``) once on ``/tf_static``.
+    * ``frames``: one LaserScan on ``scan_topic`` (header stamp = ``stamp_ns``, frame ``laser``, ranges as they
+      are: a "no return" stays one), one nav_msgs/Odometry on ``odom_topic`` and one ``odom → base_link``
+      transform on ``/tf`` per frame (none with ``odometry`` False); the scanner's mount (``spec.base_to_laser``)
+      once on ``/tf_static``.  Any iterable: frames are written as they come (a list, or a reader's ``frames()``).
     * ``ground_truth``: nav_msgs/Odometry poses of the base in the ``map`` frame on ``ground_truth_topic``.
     * ``ground_truth_map``: one nav_msgs/OccupancyGrid on ``map_topic``.
     """
 
-    frames: Sequence[Frame]
+    frames: Iterable[Frame]
     ground_truth: Trajectory | None = None
     ground_truth_map: GroundTruthMap | None = None
     scan_topic: str = "/scan"
     odom_topic: str | None = "/odom"  # None: odometry only as /tf (odom -> base_link)
+    odometry: bool = True
+    """False: a log without odometry (a lidar-only reading of a log): no Odometry topic, no odom → base on /tf."""
     ground_truth_topic: str = "/ground_truth"
     map_topic: str = "/map_gt"

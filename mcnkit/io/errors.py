@@ -14,7 +14,7 @@ import zstandard
 from rosbags.serde import SerdeError
 from rosbags.typesys import TypesysError
 
-__all__ = ["DECODE_ERRORS", "PARSE_ERRORS", "LogError", "LogWarning", "as_log_error", "warn_skipped"]
+__all__ = ["DECODE_ERRORS", "PARSE_ERRORS", "LogError", "LogWarning", "as_log_error", "one_line", "warn_skipped"]
 
 # What parsers of damaged bytes raise (struct, codecs, decompressors — lz4 raises RuntimeError —, rosbags'
 # deserialisers, sqlite).  Not TypeError, AttributeError, AssertionError, MemoryError, RecursionError: those are
@@ -31,12 +31,22 @@ PARSE_ERRORS: tuple[type[BaseException], ...] = (
 )
 
 
+_MAX_TEXT = 2000  # characters of a message kept in its one line
+
+
+def one_line(text: str, limit: int = _MAX_TEXT) -> str:
+    """``text`` as one line: its lines joined with ``"; "`` (libraries such as sqlite report over several lines),
+    runs of blanks collapsed, cut at ``limit`` characters."""
+    folded = "; ".join(" ".join(line.split()) for line in text.splitlines() if line.strip())
+    return folded if len(folded) <= limit else folded[: limit - 1] + "…"
+
+
 class LogError(Exception):
     """A log that cannot be read or written; ``str()`` is one line naming the file and the problem."""
 
     def __init__(self, path: Path | str, problem: str) -> None:
         self.path = Path(path)
-        self.problem = problem.strip().splitlines()[0] if problem.strip() else "unreadable"
+        self.problem = one_line(problem) or "unreadable"
         super().__init__(f"{self.path}: {self.problem}")
 
 
@@ -46,7 +56,7 @@ class LogWarning(UserWarning):
 
 def warn_skipped(path: Path | str, what: str) -> None:
     """Warns, in one line naming the file, that part of it was skipped."""
-    warnings.warn(f"{path}: {what}", LogWarning, stacklevel=3)
+    warnings.warn(f"{path}: {one_line(what)}", LogWarning, stacklevel=3)
 
 
 @contextmanager
@@ -57,5 +67,5 @@ def as_log_error(path: Path | str, doing: str) -> Iterator[None]:
     except LogError:
         raise
     except DECODE_ERRORS as err:
-        detail = str(err).strip().splitlines()[0][:200] if str(err).strip() else ""
+        detail = one_line(str(err), 200)
         raise LogError(path, f"{doing}: {type(err).__name__}{': ' + detail if detail else ''}") from err

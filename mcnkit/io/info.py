@@ -25,6 +25,7 @@ def describe(log: LogReader) -> dict[str, object]:
         "topics": [{"name": t.name, "type": t.msgtype, "count": t.count} for t in log.topics],
         "scan_topic": log.scan_topic or None,
         "odom_source": log.odom_source or None,
+        "lidar_only": log.lidar_only,
     }
     if log.scan_topic:
         spec = log.lidar_spec
@@ -61,7 +62,12 @@ def print_info(info: dict[str, Any]) -> None:
     for t in info["topics"]:
         print(f"  {t['name']:<{width}}  {t['count']:>7}  {t['type']}")
     print(f"scan      {info['scan_topic'] or 'none (no sensor_msgs/LaserScan topic)'}")
-    print(f"odometry  {info['odom_source'] or 'none (no Odometry topic, no odom->base transform)'}")
+    if not info["odom_source"]:
+        print("odometry  no odometry: lidar-only (no Odometry topic, no odom->base transform)")
+    elif info["lidar_only"]:
+        print(f"odometry  {info['odom_source']}, ignored: lidar-only")
+    else:
+        print(f"odometry  {info['odom_source']}")
     if "scanner" in info:
         s = info["scanner"]
         read = f" (read from {info['laser_lines']} laser lines)" if "laser_lines" in info else ""

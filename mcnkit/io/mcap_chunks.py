@@ -1,6 +1,7 @@
-"""A fast path through indexed MCAP files: read the chunks the summary lists, decompress each once, and
-split its records with ``struct`` — about 3× faster than the ``mcap`` package's ordered iterator, whose
-per-message heap dominates on logs of small messages.
+"""Indexed MCAP files: the summary section (schemas, channels, chunk indexes, statistics), read with ``struct``
+within the limits of :mod:`mcnkit.io.limits`, and the chunks it lists, each read and decompressed once and split
+with ``struct`` — about 3× faster than the ``mcap`` package's ordered iterator, whose per-message heap dominates on
+logs of small messages.
 
 Record framing (MCAP spec): ``opcode u8, length u64, body``.  A Chunk body is ``start u64, end u64,
 uncompressed_size u64, crc u32, compression (u32 len + str), records (u64 len + bytes)``; a Message body is
@@ -8,8 +9,8 @@ uncompressed_size u64, crc u32, compression (u32 len + str), records (u64 len + 
 
 Checksums: a chunk's ``uncompressed_crc`` (CRC32 of its decompressed records, 0 = not written) is checked on
 every chunk read; a chunk that fails it (or fails to decompress) is skipped and counted, the others are read.
-The footer's ``summary_crc`` covers the summary section (:func:`summary_crc_ok`), and a record-by-record read
-checks the ``DataEnd`` record's CRC of the whole data section when the writer computed one.
+The footer's ``summary_crc`` covers the summary section (:func:`read_summary`), and a record-by-record read
+(:mod:`mcnkit.io.mcap_records`) checks the ``DataEnd`` record's CRC of the whole data section.
 """
 
 from __future__ import annotations
@@ -19,84 +20,172 @@ import struct
 import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any, BinaryIO
+from pathlib import Path
 
 import lz4.frame
 import zstandard
 
-__all__ = ["ChunkCrcError", "McapRecords", "iter_chunk_messages", "read_mcap_records", "summary_crc_ok"]
+from mcnkit.io.limits import MAX_CHUNK_BYTES, check_size
+from mcnkit.io.streams import FileBytes
 
-_OP_MESSAGE, _OP_CHUNK, _OP_FOOTER, _OP_DATA_END = 0x05, 0x06, 0x02, 0x0F
-_MAGIC = b"\x89MCAP0\r\n"
-_MAX_CHUNK_BYTES = 1 << 31  # a chunk claiming more is damaged (writers chunk at about 1 MB)
+__all__ = ["MAGIC", "ChunkCrcError", "ChunkIndex", "Summary", "decompress_chunk", "iter_chunk_messages",
+           "read_summary", "take_string"]
+
+MAGIC = b"\x89MCAP0\r\n"
+_OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x02, 0x03, 0x04, 0x05, 0x06
+_OP_CHUNK_INDEX, _OP_STATISTICS = 0x08, 0x0B
 _RECORD = struct.Struct("<BQ")
 _MSG_HEAD = struct.Struct("<HIQQ")
+_FOOTER = 9 + 20  # opcode, length, summary_start u64, summary_offset_start u64, crc u32
+_CRC_PIECE = 1 << 20
 
 
 class ChunkCrcError(ValueError):
     """A chunk whose records do not match its CRC."""
 
 
-def _check_crc(records: bytes, crc: int) -> None:
-    if crc != 0 and zlib.crc32(records) != crc:
-        raise ChunkCrcError("chunk CRC mismatch")
+@dataclass(frozen=True)
+class ChunkIndex:
+    """Where a chunk is, the log times it spans and the channels it holds (channel -> its message index offset)."""
+
+    message_start_time: int
+    message_end_time: int
+    chunk_start_offset: int
+    chunk_length: int
+    message_index_offsets: dict[int, int]
 
 
-def summary_crc_ok(stream: BinaryIO) -> bool | None:
-    """Whether the summary section of an MCAP file matches the footer's CRC (None: no CRC, or no footer).
+@dataclass
+class Summary:
+    """What an MCAP summary section lists."""
 
-    Reads only the footer and the summary section; leaves the stream at its start."""
-    stream.seek(0, 2)
-    size = stream.tell()
-    footer = size - len(_MAGIC) - 29  # opcode u8, length u64, summary_start u64, summary_offset_start u64, crc u32
-    if footer < len(_MAGIC):
-        stream.seek(0)
-        return None
-    stream.seek(footer)
-    tail = stream.read()
-    stream.seek(0)
-    if tail[29:] != _MAGIC or tail[0] != _OP_FOOTER:
-        return None
+    schemas: dict[int, tuple[str, str, bytes]] = field(default_factory=dict)  # id -> (name, encoding, data)
+    channels: dict[int, tuple[str, str, int]] = field(default_factory=dict)  # id -> (topic, message encoding, schema)
+    chunk_indexes: list[ChunkIndex] = field(default_factory=list)
+    channel_message_counts: dict[int, int] | None = None  # from the Statistics record (None: there is none)
+
+
+def take_string(buf: bytes | memoryview, off: int) -> tuple[str, int]:
+    """A ``u32 length + UTF-8`` string at ``off`` and the offset after it."""
+    (n,) = struct.unpack_from("<I", buf, off)
+    if off + 4 + n > len(buf):
+        raise ValueError("string runs past the record")
+    return bytes(buf[off + 4 : off + 4 + n]).decode("utf-8", "replace"), off + 4 + n
+
+
+def _take_map(buf: bytes, off: int, fmt: str) -> tuple[dict[int, int], int]:
+    (n,) = struct.unpack_from("<I", buf, off)
+    item = struct.calcsize(fmt)
+    if off + 4 + n > len(buf) or n % item:
+        raise ValueError("map runs past the record")
+    return dict(struct.iter_unpack(fmt, buf[off + 4 : off + 4 + n])), off + 4 + n
+
+
+def _summary_record(out: Summary, op: int, body: bytes) -> None:
+    if op == _OP_SCHEMA:
+        (sid,) = struct.unpack_from("<H", body, 0)
+        name, o = take_string(body, 2)
+        enc, o = take_string(body, o)
+        (n,) = struct.unpack_from("<I", body, o)
+        out.schemas[sid] = (name, enc, bytes(body[o + 4 : o + 4 + n]))
+    elif op == _OP_CHANNEL:
+        cid, sid = struct.unpack_from("<HH", body, 0)
+        topic, o = take_string(body, 4)
+        enc, o = take_string(body, o)
+        out.channels[cid] = (topic, enc, sid)
+    elif op == _OP_CHUNK_INDEX:
+        start, end, offset, length = struct.unpack_from("<QQQQ", body, 0)
+        offsets, _ = _take_map(body, 32, "<HQ")
+        out.chunk_indexes.append(ChunkIndex(start, end, offset, length, offsets))
+    elif op == _OP_STATISTICS:
+        counts, _ = _take_map(body, 8 + 2 + 4 * 4 + 16, "<HQ")
+        out.channel_message_counts = counts
+
+
+def read_summary(src: FileBytes) -> tuple[Summary | None, bool | None]:
+    """The summary section (None: the file has none, or it is damaged or larger than ``MAX_CHUNK_BYTES``) and
+    whether it matches the footer's CRC (None: no CRC, or no footer)."""
+    footer = src.size - len(MAGIC) - _FOOTER
+    if footer < len(MAGIC):
+        return None, None
+    tail = src.read_at(footer, _FOOTER + len(MAGIC))
+    if tail[_FOOTER:] != MAGIC or tail[0] != _OP_FOOTER:
+        return None, None
     summary_start, _offsets, crc = struct.unpack_from("<QQI", tail, 9)
-    if crc == 0 or summary_start == 0:
-        return None
-    if not len(_MAGIC) <= summary_start <= footer:
-        return False
-    stream.seek(summary_start)
-    summary = stream.read(footer - summary_start)
-    stream.seek(0)
-    return zlib.crc32(tail[:25], zlib.crc32(summary)) == crc
+    if summary_start == 0:
+        return None, None
+    if not len(MAGIC) <= summary_start <= footer or footer - summary_start > MAX_CHUNK_BYTES:
+        return None, False if crc else None
+    crc_ok = None
+    if crc:
+        running = 0
+        for off in range(summary_start, footer, _CRC_PIECE):
+            running = zlib.crc32(src.read_at(off, min(_CRC_PIECE, footer - off)), running)
+        crc_ok = zlib.crc32(tail[:25], running) == crc
+        if not crc_ok:
+            return None, False
+    buf = src.read_at(summary_start, footer - summary_start)
+    out, pos = Summary(), 0
+    try:
+        while pos < len(buf):
+            op, length = _RECORD.unpack_from(buf, pos)
+            if pos + 9 + length > len(buf):
+                raise ValueError("summary record runs past the summary")
+            _summary_record(out, op, buf[pos + 9 : pos + 9 + length])
+            pos += 9 + length
+    except (ValueError, struct.error):
+        return None, crc_ok
+    return out, crc_ok
 
 
-def _decompress(kind: str, data: bytes, size: int) -> bytes:
+def decompress_chunk(kind: str, data: bytes | memoryview, size: int, partial: bool = False) -> bytes:
+    """A chunk's records, at most its declared ``size``; ``partial``: the data is cut off, give what decompresses."""
     if kind == "":
-        return data
+        return bytes(data)
     if kind == "zstd":
+        if partial:
+            return _partial_zstd(data, size)
         declared = zstandard.frame_content_size(data)
-        if declared > min(size, _MAX_CHUNK_BYTES) or (declared < 0 and size > _MAX_CHUNK_BYTES):
-            raise ValueError(f"chunk claims {max(declared, size)} bytes uncompressed")
-        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-    if kind == "lz4":
-        return bytes(lz4.frame.decompress(data))
-    raise ValueError(f"unknown MCAP chunk compression {kind!r}")
+        if declared > size:
+            raise ValueError(f"chunk claims {declared} bytes uncompressed, more than its {size}")
+        out = zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
+    elif kind == "lz4":
+        d = lz4.frame.LZ4FrameDecompressor()
+        out = bytes(d.decompress(data, max_length=size + 1))
+        if not partial and not d.eof:
+            raise ValueError("chunk data ends before its compressed stream does")
+    else:
+        raise ValueError(f"unknown MCAP chunk compression {kind!r}")
+    if len(out) > size:
+        raise ValueError(f"chunk decompresses to more than the {size} bytes it declares")
+    return out
 
 
-def _chunk_messages(stream: BinaryIO, index: Any, channels: set[int]) -> list[tuple[int, int, bytes]]:
-    stream.seek(index.chunk_start_offset)
-    buf = stream.read(index.chunk_length)
+def _partial_zstd(data: bytes | memoryview, size: int) -> bytes:
+    """What decompresses of a cut-off zstd chunk, at most ``size`` bytes (fed in small pieces: one piece of a
+    hostile stream cannot expand beyond a few tens of MB)."""
+    d = zstandard.ZstdDecompressor().decompressobj()
+    out = bytearray()
+    for i in range(0, len(data), 1024):
+        out += d.decompress(bytes(data[i : i + 1024]))
+        if len(out) > size:
+            break
+    return bytes(out[:size])
+
+
+def _chunk_messages(src: FileBytes, path: Path, index: ChunkIndex, channels: set[int]) -> list[tuple[int, int, bytes]]:
+    check_size(path, f"a chunk at byte {index.chunk_start_offset}", index.chunk_length, MAX_CHUNK_BYTES)
+    buf = src.read_at(index.chunk_start_offset, index.chunk_length)
     op, _length = _RECORD.unpack_from(buf, 0)
     if op != _OP_CHUNK:
         raise ValueError(f"no chunk record at offset {index.chunk_start_offset}")
-    off = 9
-    _start, _end, size, crc = struct.unpack_from("<QQQI", buf, off)
-    off += 28
-    (clen,) = struct.unpack_from("<I", buf, off)
-    kind = bytes(buf[off + 4 : off + 4 + clen]).decode()
-    off += 4 + clen
+    _start, _end, size, crc = struct.unpack_from("<QQQI", buf, 9)
+    check_size(path, f"a chunk at byte {index.chunk_start_offset}", size, MAX_CHUNK_BYTES)
+    kind, off = take_string(buf, 37)
     (rlen,) = struct.unpack_from("<Q", buf, off)
-    off += 8
-    records = _decompress(kind, buf[off : off + rlen], size)
-    _check_crc(records, crc)
+    records = decompress_chunk(kind, memoryview(buf)[off + 8 : off + 8 + rlen], size)
+    if crc != 0 and zlib.crc32(records) != crc:
+        raise ChunkCrcError("chunk CRC mismatch")
     out = []
     pos, end = 0, len(records)
     unpack_record, unpack_msg = _RECORD.unpack_from, _MSG_HEAD.unpack_from
@@ -113,13 +202,14 @@ def _chunk_messages(stream: BinaryIO, index: Any, channels: set[int]) -> list[tu
 
 
 def iter_chunk_messages(
-    stream: BinaryIO, summary: Any, channels: set[int], on_damaged: Callable[[Exception], None] | None = None
+    src: FileBytes, path: Path, summary: Summary, channels: set[int],
+    on_damaged: Callable[[Exception], None] | None = None,
 ) -> Iterator[tuple[int, int, bytes]]:
     """``(log_time, channel id, data)`` in log-time order for the chunks that hold any of ``channels``.
 
     Chunks whose time ranges overlap are merged; others are yielded one after the other.  A chunk that is
     damaged (CRC mismatch, cannot be decompressed or split) is skipped and passed to ``on_damaged``; without
-    ``on_damaged`` the error is raised.
+    ``on_damaged`` the error is raised.  A chunk larger than ``MAX_CHUNK_BYTES`` is a :class:`LogError`.
     """
     indexes = sorted(
         (ci for ci in summary.chunk_indexes if any(c in ci.message_index_offsets for c in channels)),
@@ -132,7 +222,7 @@ def iter_chunk_messages(
             yield from (heapq.merge(*group, key=lambda m: m[0]) if len(group) > 1 else group[0])
             group = []
         try:
-            group.append(_chunk_messages(stream, ci, channels))
+            group.append(_chunk_messages(src, path, ci, channels))
         except (ValueError, struct.error, zstandard.ZstdError, RuntimeError, OverflowError, MemoryError) as err:
             if on_damaged is None:
                 raise
@@ -141,100 +231,3 @@ def iter_chunk_messages(
         group_end = max(group_end, ci.message_end_time)
     if group:
         yield from (heapq.merge(*group, key=lambda m: m[0]) if len(group) > 1 else group[0])
-
-
-@dataclass
-class McapRecords:
-    """What a record-by-record pass over an MCAP file found, and where (and why) it stopped early."""
-
-    schemas: dict[int, tuple[str, str, bytes]] = field(default_factory=dict)  # id -> (name, encoding, data)
-    channels: dict[int, tuple[str, str, int]] = field(default_factory=dict)  # id -> (topic, msg encoding, schema)
-    messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # (log_time, channel, data)
-    stopped_at: int | None = None
-    stop_reason: str = ""
-    chunks: int = 0  # chunk records met (0: an unchunked file, whose only checksum is the data section's)
-    damaged_chunks: int = 0  # whole chunks skipped: CRC mismatch or undecodable
-    data_crc_ok: bool | None = None  # the DataEnd record's CRC of the data section (None: absent or not reached)
-
-
-def _str(buf: bytes, off: int) -> tuple[str, int]:
-    (n,) = struct.unpack_from("<I", buf, off)
-    if off + 4 + n > len(buf):
-        raise ValueError("string runs past the record")
-    return bytes(buf[off + 4 : off + 4 + n]).decode("utf-8", "replace"), off + 4 + n
-
-
-def _partial_decompress(kind: str, data: bytes) -> bytes:
-    """As much of a (possibly cut-off) compressed chunk as decompresses."""
-    if kind == "zstd":
-        return zstandard.ZstdDecompressor().decompressobj().decompress(data)
-    if kind == "lz4":
-        out = lz4.frame.LZ4FrameDecompressor()
-        return bytes(out.decompress(data))
-    return data
-
-
-def _take_records(buf: bytes, out: McapRecords, inside_chunk: bool) -> tuple[int | None, str]:
-    pos = 0 if inside_chunk else 8
-    while pos < len(buf):
-        try:
-            op, length = _RECORD.unpack_from(buf, pos)
-            body, end = pos + 9, pos + 9 + length
-            cut = end > len(buf)
-            if cut and not (op == _OP_CHUNK and not inside_chunk):
-                raise ValueError(f"record (opcode {op:#x}) is cut off")
-            if op == 0x03:
-                (sid,) = struct.unpack_from("<H", buf, body)
-                name, o = _str(buf, body + 2)
-                enc, o = _str(buf, o)
-                (n,) = struct.unpack_from("<I", buf, o)
-                out.schemas[sid] = (name, enc, bytes(buf[o + 4 : o + 4 + n]))
-            elif op == 0x04:
-                cid, sid = struct.unpack_from("<HH", buf, body)
-                topic, o = _str(buf, body + 4)
-                enc, o = _str(buf, o)
-                out.channels[cid] = (topic, enc, sid)
-            elif op == _OP_MESSAGE:
-                channel, _seq, log_time, _pub = _MSG_HEAD.unpack_from(buf, body)
-                out.messages.append((log_time, channel, bytes(buf[body + 22 : end])))
-            elif op == _OP_CHUNK:
-                out.chunks += 1
-                size, crc = struct.unpack_from("<QI", buf, body + 16)
-                kind, o = _str(buf, body + 28)
-                (rlen,) = struct.unpack_from("<Q", buf, o)
-                data = buf[o + 8 : min(o + 8 + rlen, len(buf))]
-                if cut:
-                    inner = _partial_decompress(kind, data)
-                else:
-                    try:
-                        inner = _decompress(kind, data, size)
-                        _check_crc(inner, crc)
-                    except (ValueError, zstandard.ZstdError, RuntimeError) as err:
-                        if o + 8 + rlen > end:
-                            raise
-                        out.damaged_chunks += 1  # its framing holds: skip just this chunk
-                        del err
-                        pos = end
-                        continue
-                stop, why = _take_records(inner, out, inside_chunk=True)
-                if cut or stop is not None:
-                    raise ValueError(why or "chunk is cut off")
-            elif op == _OP_DATA_END and not inside_chunk:
-                (crc,) = struct.unpack_from("<I", buf, body)
-                out.data_crc_ok = None if crc == 0 else zlib.crc32(buf[:pos]) == crc
-            elif op == _OP_FOOTER and not inside_chunk:  # footer: the data section is over
-                return None, ""
-        except (struct.error, ValueError, zstandard.ZstdError, RuntimeError) as err:
-            return pos, str(err)
-        pos = end
-    return None, ""
-
-
-def read_mcap_records(data: bytes) -> McapRecords:
-    """Reads an MCAP file record by record, keeping every whole message before a cut-off or damage."""
-    out = McapRecords()
-    if not data.startswith(b"\x89MCAP0\r\n"):
-        out.stopped_at, out.stop_reason = 0, "no MCAP magic"
-        return out
-    out.stopped_at, out.stop_reason = _take_records(data, out, inside_chunk=False)
-    return out

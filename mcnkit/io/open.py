@@ -12,50 +12,60 @@
 
 from __future__ import annotations
 
-import bz2
-import gzip
 from pathlib import Path
 
-import zstandard
 from ruamel.yaml import YAML
 
 from mcnkit.io.bag import BagLog
 from mcnkit.io.base import LogReader
 from mcnkit.io.carmen import CarmenLog, is_carmen
 from mcnkit.io.errors import LogError, as_log_error
-from mcnkit.io.sources import McapSource, RawSource, Ros1BagSource, SqliteSource
+from mcnkit.io.limits import MAX_DEFINITION_BYTES, check_regular, check_size
+from mcnkit.io.sources import McapSource, RawSource, Ros1BagSource
+from mcnkit.io.sqlite_source import SqliteSource
+from mcnkit.io.streams import compression_of, open_decompressed
 
-__all__ = ["open_log"]
+__all__ = ["ODOMETRY_CHOICES", "open_log"]
 
 _ROS1_MAGIC = b"#ROSBAG V2.0"
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
-_ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
-_BZ2_MAGIC = b"BZh"
-_GZIP_MAGIC = b"\x1f\x8b"
 
 
-def open_log(path: str | Path, *, scan_topic: str | None = None, odom: str | None = None) -> LogReader:
+ODOMETRY_CHOICES = ("use", "ignore")
+
+
+def open_log(path: str | Path, *, scan_topic: str | None = None, odom: str | None = None,
+             odometry: str = "use") -> LogReader:
     """Opens any supported robot log.
 
     Args:
         path: a file or a ROS2 bag folder.
         scan_topic: the LaserScan topic to build frames from (default: detected).
         odom: an Odometry topic, or ``tf:<odom frame>-><base frame>`` (default: detected).
+        odometry: ``"use"`` the log's odometry, or ``"ignore"`` it: read the log as a lidar-only one (every
+            frame's motion unknown), as a log without odometry is read.
 
     Raises:
-        LogError: one line naming the file and the problem (missing, empty, not a log, damaged beyond use).
+        LogError: one line naming the file and the problem (missing, empty, not a regular file, not a log, damaged
+            beyond use, or holding more in one piece than a reader holds: see :mod:`mcnkit.io.limits`).
     """
+    if odometry not in ODOMETRY_CHOICES:
+        raise ValueError(f"odometry must be one of {ODOMETRY_CHOICES}, not {odometry!r}")
     path = Path(path)
     if not path.exists():
         raise LogError(path, "no such file or folder")
+    log: LogReader
     with as_log_error(path, "cannot read"):
         if path.is_dir():
             fmt, source = _open_ros2_folder(path)
-            return BagLog(path, fmt, source, scan_topic=scan_topic, odom=odom)
-        fmt, maybe_source = _open_file(path)
-        if maybe_source is None:
-            return CarmenLog(path)
-        return BagLog(path, fmt, maybe_source, scan_topic=scan_topic, odom=odom)
+            log = BagLog(path, fmt, source, scan_topic=scan_topic, odom=odom)
+        else:
+            check_regular(path)
+            fmt, maybe_source = _open_file(path)
+            log = CarmenLog(path) if maybe_source is None else BagLog(path, fmt, maybe_source, scan_topic=scan_topic,
+                                                                      odom=odom)
+    log.odometry = odometry
+    return log
 
 
 def _open_file(path: Path) -> tuple[str, RawSource | None]:
@@ -67,23 +77,16 @@ def _open_file(path: Path) -> tuple[str, RawSource | None]:
         return "ros1", Ros1BagSource(path)
     if head.startswith(_MCAP_MAGIC):
         return _mcap_format(McapSource(path, [path]))
-    if head.startswith((_ZSTD_MAGIC, _BZ2_MAGIC)) or (head.startswith(_GZIP_MAGIC) and not is_carmen(path)):
-        data = _decompress(path, head)
-        if data.startswith(_MCAP_MAGIC):
-            return _mcap_format(McapSource(path, [path], data=data))
+    kind = compression_of(head)
+    if kind is not None and (kind != "gzip" or not is_carmen(path)):
+        with open_decompressed(path, kind) as stream:
+            inner = stream.read(len(_MCAP_MAGIC))
+        if inner.startswith(_MCAP_MAGIC):
+            return _mcap_format(McapSource(path, [path], compression=kind))
         raise LogError(path, "a compressed file that holds no MCAP (compressed ROS1 bags: use bag chunk compression)")
     if is_carmen(path):
         return "carmen", None
     raise LogError(path, "not a robot log: no ROS1 bag, MCAP, CARMEN or DP-SLAM signature")
-
-
-def _decompress(path: Path, head: bytes) -> bytes:
-    raw = path.read_bytes()
-    if head.startswith(_ZSTD_MAGIC):
-        return zstandard.ZstdDecompressor().decompressobj().decompress(raw)
-    if head.startswith(_BZ2_MAGIC):
-        return bz2.decompress(raw)
-    return gzip.decompress(raw)
 
 
 def _mcap_format(source: McapSource) -> tuple[str, RawSource]:
@@ -94,6 +97,8 @@ def _mcap_format(source: McapSource) -> tuple[str, RawSource]:
 def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
     meta = path / "metadata.yaml"
     if meta.exists():
+        check_regular(meta)
+        check_size(meta, "a metadata file", meta.stat().st_size, MAX_DEFINITION_BYTES)
         try:
             info = YAML(typ="safe").load(meta.read_text())["rosbag2_bagfile_information"]
             storage = str(info.get("storage_identifier", ""))
@@ -109,6 +114,8 @@ def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
         storage = "sqlite3" if files and files[0].suffix == ".db3" else "mcap"
     if not files:
         raise LogError(path, "a folder that is not a ROS2 bag (no metadata.yaml, no .db3 or .mcap files)")
+    for f in files:
+        check_regular(f)
     if storage == "sqlite3":
         return "ros2-sqlite3", SqliteSource(path, files)
     if storage == "mcap":

@@ -9,12 +9,13 @@ counted in ONE warning per pass over the frames; a log with no usable frame left
 beams; finite ``angle_min`` within ±2π; a finite, non-zero angle increment with a field of view of at most 360°;
 ``0 <= range_min < range_max <= MAX_RANGE_M`` (1 km: farther than any planar scanner measures).
 
-**A scan** (:func:`ranges_problem`): NaN and ±inf are "no return" (ROS REP 117: NaN a failed measurement, +inf
-nothing in range, -inf too close); a finite reading in ``[0, range_min)`` or in ``(range_max,
-NO_RETURN_FACTOR · range_max]`` is "no return" too (scanners mark it just beyond their limit: SICK's 81.91 m
-on an 81.89 m scanner, CARMEN's 81.91 / 50.00 sentinels).  A negative finite reading, or one beyond twice the
-stated limit, is a reading no scanner makes: the scan is dropped.  The mount offset of the scanner on the base
-is finite and within ``MAX_MOUNT_M`` (100 m).
+**A scan** (:func:`ranges_problem`) is dropped only when it cannot be one of its scanner's: another beam count.
+Every reading outside ``[range_min, range_max]`` is "no return" (ROS REP 117): NaN a failed measurement, +inf
+nothing within range, -inf too close, a finite reading beyond ``range_max`` (SICK's 81.91 m on an 81.89 m
+scanner, CARMEN's sentinels, an RPLIDAR's returns past its stated limit) or below ``range_min`` (negative ones
+included); :attr:`mcnkit.types.Scan.valid` says which readings are returns, and the readings are passed on as
+logged, so a conversion keeps them.  The mount offset of the scanner on the base is finite and within
+``MAX_MOUNT_M`` (100 m).
 
 **Stamps**: 0 <= stamp < 2^32 s (every ROS time fits).  A scan stamped before the last one passed on is dropped
 ("stamp went backwards"); a scan stamped after most of the next ``LOOKAHEAD`` scans (which themselves follow
@@ -36,7 +37,12 @@ A step beyond that is resolved with the next ``LOOKAHEAD`` scans:
 * otherwise the scan is dropped (and when it carried unknown motion, so does the next frame, whose motion
   now spans it).
 
-Poses are passed on bit for bit unless a re-anchoring happened.
+A frame the reader already marks as unknown motion (a gap in the odometry, a log without odometry, a step the
+reader found impossible) is not judged by these rules: its odometry is re-anchored to repeat the last pose passed
+on (unless it already does), so that the motion it carries is none and the poses after it keep their increments.
+
+Poses are passed on bit for bit unless a re-anchoring happened.  :func:`without_odometry` reads any log as one
+without odometry (every frame's motion unknown, its pose the origin).
 """
 
 from __future__ import annotations
@@ -62,7 +68,6 @@ __all__ = [
     "MAX_SPEED_M_S",
     "MAX_STAMP_NS",
     "MAX_TURN_RAD_S",
-    "NO_RETURN_FACTOR",
     "STEP_SLACK_M",
     "TURN_SLACK_RAD",
     "check_spec",
@@ -71,12 +76,12 @@ __all__ = [
     "ranges_problem",
     "spec_problem",
     "step_possible",
+    "without_odometry",
 ]
 
 MAX_BEAMS = 100_000
 MAX_RANGE_M = 1000.0
 MAX_MOUNT_M = 100.0
-NO_RETURN_FACTOR = 2.0
 MAX_STAMP_NS = 2**32 * 1_000_000_000
 MAX_COORD_M = 1e7
 MAX_SPEED_M_S = 10.0
@@ -116,16 +121,10 @@ def check_spec(path: Path | str, spec: LidarSpec) -> LidarSpec:
 
 
 def ranges_problem(ranges: np.ndarray, spec: LidarSpec) -> str | None:
-    """Why a scan's readings are impossible for its scanner (None: they are possible)."""
+    """Why a scan's readings cannot be its scanner's (None: they can; any value outside the range interval is a
+    "no return", REP 117)."""
     if ranges.shape != (spec.n_beams,):
         return "different beam count"
-    # comparisons are False for NaN; -inf and +inf ("no return") are told apart only when a comparison hits
-    neg = ranges < 0.0
-    if neg.any() and np.isfinite(ranges[neg]).any():
-        return "negative range"
-    far = ranges > NO_RETURN_FACTOR * spec.range_max_m
-    if far.any() and np.isfinite(ranges[far]).any():
-        return "range beyond the scanner's limit"
     return None
 
 
@@ -199,6 +198,11 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
             earlier = sum(lo <= g.stamp_ns < f.stamp_ns for g in rest)
             if 2 * earlier > len(rest):
                 return None, "stamp out of order"
+        if last is not None and not f.odom_known:  # the reader says its motion is unknown: none is carried
+            if odom == last.odom:
+                return _with_odom(f, odom), None
+            anchor.reanchor(last.odom, f.odom)
+            return _with_odom(f, last.odom, known=False), None
         if last is None:
             # the first frame: trusted unless the frames after it agree with each other but not with it
             if len(rest) >= 2 and not _reachable(f.stamp_ns, odom, rest[0], anchor) and _chain(rest, anchor):
@@ -258,6 +262,13 @@ def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter
         parts.append(f"odometry re-anchored after {reanchored} jump(s) a robot cannot make (read as unknown motion)")
     if parts:
         warn_skipped(path, "; ".join(parts))
+
+
+def without_odometry(frames: Iterable[Frame]) -> Iterator[Frame]:
+    """The frames as a log without odometry gives them: every motion unknown, every pose the origin."""
+    origin = Pose2D()
+    for f in frames:
+        yield Frame(f.stamp_ns, f.scan, origin, False)
 
 
 def _summary(counts: Counter[str]) -> str:

@@ -1,9 +1,11 @@
 """``write_log``: frames (plus optional ground truth) to a ROS1 bag, a ROS2 bag folder or an MCAP file.
 
-Messages: ``sensor_msgs/LaserScan`` (frame ``laser``), ``nav_msgs/Odometry`` (``odom`` → ``base_link``), the
-same odometry as ``/tf``, the scanner mount as ``/tf_static``, ground-truth ``nav_msgs/Odometry`` in ``map``,
-and a ``nav_msgs/OccupancyGrid`` ground-truth map.  Record time = header stamp, so a log read back yields the
-same frames: float32 ranges bit-identical, stamps identical to the nanosecond.
+Messages: ``sensor_msgs/LaserScan`` (frame ``laser``, ranges as read: a "no return" of any kind stays one),
+``nav_msgs/Odometry`` (``odom`` → ``base_link``) and the same odometry as ``/tf`` (neither in a log without
+odometry), the scanner mount as ``/tf_static``, ground-truth ``nav_msgs/Odometry`` in ``map``, and a
+``nav_msgs/OccupancyGrid`` ground-truth map.  Record time = header stamp, so a log read back yields the same
+frames: float32 ranges bit-identical, stamps identical to the nanosecond.  Frames are written as they come, so a
+reader's ``frames()`` converts a log of any length in the memory of one chunk.
 
 Writing goes to ``<path>.partial`` and is renamed at the end, so an interrupted write never leaves a file that
 looks complete.
@@ -11,8 +13,10 @@ looks complete.
 
 from __future__ import annotations
 
+import itertools
 import shutil
 from collections.abc import Callable, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -111,20 +115,24 @@ class _Msgs:
 
 
 def _messages(content: LogContent, b: _Msgs) -> Iterator[tuple[str, str, int, Any]]:
-    """(topic, kind, record time, message) in time order."""
-    frames = content.frames
-    first = frames[0].stamp_ns
-    yield "/tf_static", "tf", first, b.tf(first, BASE_FRAME, LASER_FRAME, frames[0].scan.spec.base_to_laser)
+    """(topic, kind, record time, message) in time order (``content.frames`` starts with a frame: see
+    :func:`write_log`)."""
+    frames = iter(content.frames)
+    head = next(frames)
+    first = head.stamp_ns
+    yield "/tf_static", "tf", first, b.tf(first, BASE_FRAME, LASER_FRAME, head.scan.spec.base_to_laser)
     if content.ground_truth_map is not None:
         yield content.map_topic, "map", content.ground_truth_map.stamp_ns, b.occupancy_grid(content)
     gt = content.ground_truth
     gi = 0
-    for f in frames:
+    for f in itertools.chain([head], frames):
         while gt is not None and gi < len(gt) and gt.stamps_ns[gi] <= f.stamp_ns:
             t = int(gt.stamps_ns[gi])
             yield content.ground_truth_topic, "odom", t, b.odometry(t, Pose2D.from_array(gt.poses[gi]), MAP_FRAME)
             gi += 1
         yield content.scan_topic, "scan", f.stamp_ns, b.scan(f)
+        if not content.odometry:
+            continue
         if content.odom_topic:
             yield content.odom_topic, "odom", f.stamp_ns, b.odometry(f.stamp_ns, f.odom, ODOM_FRAME)
         yield "/tf", "tf", f.stamp_ns, b.tf(f.stamp_ns, ODOM_FRAME, BASE_FRAME, f.odom)
@@ -135,9 +143,11 @@ def _messages(content: LogContent, b: _Msgs) -> Iterator[tuple[str, str, int, An
 
 
 def _topics(content: LogContent) -> dict[str, str]:
-    topics = {"/tf_static": "tf", content.scan_topic: "scan", "/tf": "tf"}
-    if content.odom_topic:
-        topics[content.odom_topic] = "odom"
+    topics = {"/tf_static": "tf", content.scan_topic: "scan"}
+    if content.odometry:
+        topics["/tf"] = "tf"
+        if content.odom_topic:
+            topics[content.odom_topic] = "odom"
     if content.ground_truth is not None:
         topics[content.ground_truth_topic] = "odom"
     if content.ground_truth_map is not None:
@@ -218,10 +228,13 @@ def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, 
     fmt = fmt or infer_format(path)
     if fmt not in (*FORMATS, "mcap-ros1"):
         raise LogError(path, f"unknown output format {fmt!r} (choose from {', '.join(FORMATS)})")
-    if not content.frames:
-        raise LogError(path, "nothing to write: no frames")
     if path.exists() and not overwrite:
         raise LogError(path, "exists already (pass overwrite=True or --overwrite)")
+    frames = iter(content.frames)
+    head = next(frames, None)
+    if head is None:
+        raise LogError(path, "nothing to write: no frames")
+    content = replace(content, frames=itertools.chain([head], frames))
     partial = path.with_name(path.name + ".partial")
     if partial.exists():
         shutil.rmtree(partial) if partial.is_dir() else partial.unlink()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gzip
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -184,7 +185,7 @@ def test_a_stamp_that_jumped_ahead_does_not_hide_the_scans_after_it(frames: list
     assert len(out) == len(frames) - 1
 
 
-def test_impossible_ranges_are_dropped_and_a_log_of_nothing_else_is_refused(frames: list[Frame]) -> None:
+def test_every_reading_out_of_range_is_no_return_and_no_scan_is_dropped_for_it(frames: list[Frame]) -> None:
     from mcnkit.io.plausible import plausible_frames
     from mcnkit.types import Scan
 
@@ -193,12 +194,14 @@ def test_impossible_ranges_are_dropped_and_a_log_of_nothing_else_is_refused(fram
         r[0] = v
         return Frame(f.stamp_ns, Scan(r, f.scan.spec), f.odom)
 
-    # inf / NaN / just beyond the limit are "no return"; negative or far beyond are impossible
-    mixed = [with_range(f, v) for f, v in zip(frames, [np.inf, np.nan, 10.5, -3.0, 1e30] * 4, strict=True)]
-    with pytest.warns(LogWarning, match=r"4 \(negative range\), 4 \(range beyond the scanner's limit\)"):
-        assert len(list(plausible_frames("x.bag", mixed))) == 12
-    with pytest.raises(LogError, match=r"x\.bag: no usable scans: 20 \(negative range\)"):
-        list(plausible_frames("x.bag", [with_range(f, -1.0) for f in frames]))
+    # REP 117: +inf nothing within range, -inf too close, NaN invalid; beyond range_max or below range_min: no return
+    mixed = [with_range(f, v) for f, v in zip(frames, [np.inf, -np.inf, np.nan, 10.5, -3.0, 1e30, 0.05] * 3, strict=False)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LogWarning)
+        got = list(plausible_frames("x.bag", mixed))
+    assert len(got) == len(mixed)
+    assert all(np.array_equal(a.scan.ranges_m, b.scan.ranges_m, equal_nan=True) for a, b in zip(got, mixed, strict=True))
+    assert not any(f.scan.valid[0] for f in got)
 
 
 def test_a_carmen_log_with_a_1e38_range_reads_and_maps(tmp_path: Path) -> None:
@@ -212,11 +215,10 @@ def test_a_carmen_log_with_a_1e38_range_reads_and_maps(tmp_path: Path) -> None:
         lines.append(f"FLASER 181 {' '.join(ranges)} {0.05 * k} 0 0 {0.05 * k} 0 0 {1 + 0.1 * k:.1f} host 0")
     path = tmp_path / "big.log"
     path.write_text("\n".join(lines) + "\n")
-    with pytest.warns(LogWarning, match=r"1 \(range beyond the scanner's limit\)"):
-        with open_log(path) as log:
-            assert log.lidar_spec.range_max_m < 3.0  # the 1e38 reading does not set the limit
-            got = list(log.frames())
-    assert len(got) == 29
+    with open_log(path) as log:
+        assert log.lidar_spec.range_max_m < 3.0  # the 1e38 reading does not set the limit
+        got = list(log.frames())
+    assert len(got) == 30 and not got[12].scan.valid[40]  # read as no return
     slam = FastSlam(SlamConfig(n_particles=3), np.random.default_rng(0))
     for f in got:
         slam.step(f)

@@ -213,3 +213,40 @@ def test_a_corrected_log_that_dropped_the_odometry_between_some_scans_says_the_m
     odom = np.array([f.odom.as_array() for f in frames])
     assert np.allclose(odom[4], odom[3]) and np.allclose(odom[8], odom[7])  # the pose repeats: motion unknown
     assert 0.45 < odom[5, 0] - odom[4, 0] < 0.55  # elsewhere the raw increments are kept
+
+
+def test_a_20_m_step_into_a_scan_whose_stamp_was_rebuilt_is_unknown_motion(tmp_path: Path) -> None:
+    # a damaged line: its stamp reads 0 (rebuilt from its neighbours, so it carries no time to judge a speed by) and
+    # its pose fields are shifted 20 m: the steps into and out of it are read as unknown motion, not passed on
+    lines = [_flaser(k, f"{100.0 + 0.25 * k:.3f}") for k in range(N_SCANS)]
+    x = 1.0 + 0.5 * 5
+    lines[5] = f"FLASER 181 {' '.join(_ranges(x))} {x + 20} 5 0 {x + 20} 5 0 0 host 0"
+    stamps, xs, messages, _ = _read(_write(tmp_path, lines))
+    assert len(stamps) == N_SCANS  # the scan is kept
+    assert any("2 odometry step(s) a robot cannot make between scans whose stamps were rebuilt" in m for m in messages)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LogWarning)
+        with open_log(tmp_path / "run.log") as log:
+            known = [f.odom_known for f in log.frames()]
+    assert [k for k, ok in enumerate(known) if not ok] == [5, 6]
+    steps = np.diff(xs)
+    assert steps[4] == steps[5] == 0.0  # unknown motion carries no step
+    assert np.allclose(steps[6:], 0.5) and np.allclose(steps[:4], 0.5)  # the odometry's own steps elsewhere
+
+
+def test_a_misparsed_corrected_line_does_not_carry_the_robot_away(tmp_path: Path) -> None:
+    # Radish corrected layout; scan 6's line lost a field, so its pose fields shifted and its stamp reads 0.003
+    lines = []
+    for k in range(N_SCANS):
+        x = 1.0 + 0.5 * k
+        if k:
+            lines.append(f"ODOM {x - 0.02:.3f} 5.01 0.003 0 0 0 {k - 0.5:.3f} host {k - 0.5:.3f}")
+        pose = f"5 0 {x} 5 0.003 {x} 5 0" if k == 6 else f"{x} 5 0 {x} 5 0"
+        lines.append(f"FLASER 181 {' '.join(_ranges(x))} {pose} {k + 0.0:.3f} host {k + 0.0:.3f}")
+        lines.append(f"ODOM {x} 5 0 0 0 0 {k + 0.1:.3f} host {k + 0.1:.3f}")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LogWarning)
+        with open_log(_write(tmp_path, lines)) as log:
+            frames = list(log.frames())
+    odom = np.array([f.odom.as_array() for f in frames])
+    assert np.abs(np.diff(odom[:, :2], axis=0)).max() < 1.0  # no step beyond the robot's own half metre

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcnkit.io import CarmenLog, LogError, LogWarning, open_log
+from mcnkit.io import CarmenLog, LogWarning, open_log
 from mcnkit.io.info import describe
 
 FIXTURES = [
@@ -70,12 +70,14 @@ def test_damaged_files_are_read_as_far_as_the_data_goes(shared_data: Path) -> No
             assert sum(1 for _ in log.messages(topic)) == n
 
 
-def test_a_three_beam_laser_bag_gives_its_scanner(shared_data: Path) -> None:
+def test_a_three_beam_laser_bag_without_odometry_is_read_lidar_only(shared_data: Path) -> None:
     with open_log(shared_data / "fixtures/rosbag_analyzer_web/test_sample_no_rosout.bag") as log:
         assert log.scan_topic == "/sensor/lidar/scan"
         assert log.lidar_spec.n_beams == 3
-        with pytest.raises(LogError, match="no odometry"):
-            next(iter(log.frames()))
+        assert log.odom_source == "" and log.lidar_only
+        frames = list(log.frames())
+    assert len(frames) == 3 and not any(f.odom_known for f in frames)
+    assert all(f.odom == frames[0].odom for f in frames)
 
 
 @pytest.mark.parametrize(

@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mcnkit.app.commands.info import SourceOptions
 from mcnkit.app.options import add_options
 from mcnkit.io.content import FORMATS, LogContent
+
+if TYPE_CHECKING:
+    from mcnkit.types import Frame
 
 __all__ = ["ConvertOptions", "add_convert_parser"]
 
@@ -37,15 +42,24 @@ def _convert(args: argparse.Namespace) -> int:
     from mcnkit.io.writers import infer_format, write_log
 
     check_outputs([args.input], [Output(args.output, folder=None)], overwrite=args.overwrite)
-    with open_log(args.input, scan_topic=args.scan_topic, odom=args.odom) as log:
+    fmt = args.format or infer_format(args.output)
+    with open_log(args.input, scan_topic=args.scan_topic, odom=args.odom, odometry=args.odometry) as log:
         log.check_frames()
         total = next((t.count for t in log.topics if t.name == log.scan_topic), None)
-        frames = list(tqdm(log.frames(), total=total, unit="scan", desc="reading", disable=args.quiet))
-        content = LogContent(frames, ground_truth=log.ground_truth(), ground_truth_map=log.ground_truth_map())
-    fmt = args.format or infer_format(args.output)
-    out = write_log(args.output, content, fmt, overwrite=args.overwrite)
+        written = 0
+
+        def frames() -> Iterator[Frame]:  # streamed to the writer: a log of any length in the memory of one chunk
+            nonlocal written
+            for frame in tqdm(log.frames(), total=total, unit="scan", desc="converting", disable=args.quiet):
+                written += 1
+                yield frame
+
+        content = LogContent(frames(), ground_truth=log.ground_truth(), ground_truth_map=log.ground_truth_map(),
+                             odometry=not log.lidar_only)
+        out = write_log(args.output, content, fmt, overwrite=args.overwrite)
     extra = " + ground truth" if content.ground_truth is not None else ""
-    print(f"wrote {out} ({fmt}): {len(frames)} scans with odometry, /tf, /tf_static{extra}")
+    odometry = "with odometry, /tf" if content.odometry else "without odometry (lidar-only)"
+    print(f"wrote {out} ({fmt}): {written} scans {odometry}, /tf_static{extra}")
     return 0
 
 

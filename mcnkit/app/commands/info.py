@@ -6,6 +6,7 @@ import argparse
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 from mcnkit.app.options import add_options
 from mcnkit.io.info import describe, print_info
@@ -21,6 +22,8 @@ class SourceOptions:
     """LaserScan topic to use (default: /scan, else the busiest LaserScan topic)"""
     odom: str | None = None
     """Odometry topic, or tf:ODOM_FRAME->BASE_FRAME (default: detected)"""
+    odometry: Literal["use", "ignore"] = "use"
+    """use the log's odometry, or ignore it: read the log lidar-only, as a log without odometry is read"""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -36,7 +39,7 @@ class InfoOptions(SourceOptions):
 def _info(args: argparse.Namespace) -> int:
     from mcnkit.io.open import open_log
 
-    with open_log(args.log, scan_topic=args.scan_topic, odom=args.odom) as log:
+    with open_log(args.log, scan_topic=args.scan_topic, odom=args.odom, odometry=args.odometry) as log:
         info = describe(log)
     if args.json:
         print(json.dumps(info, indent=2))
