@@ -9,20 +9,16 @@ Detection (each overridable in :func:`mcnkit.io.open_log`):
 
 Frames: scans and odometry are read together in record order; each scan's odometry is interpolated at the
 scan's header stamp between the two odometry poses around it.  Scans whose stamp went backwards, that have
-a different beam count, or a header stamp far (``STAMP_TOLERANCE_S``) from their record time are skipped and
-counted in the one warning of :func:`mcnkit.io.plausible.plausible_frames`, which then checks that every frame is
-physically plausible.
+a different beam count, or a header stamp far from their record time (:mod:`mcnkit.io.stampcheck`: one stamp
+that jumped is dropped before it can hold up the scans behind it or make later odometry look as if it went
+backwards) are skipped and counted in the one warning of :func:`mcnkit.io.plausible.plausible_frames`, which then
+checks that every frame is physically plausible.
 
 **Where odometry is missing** the motion is unknown, not zero: a scan farther than ``max_odom_gap_s`` from every
 odometry sample (before the stream starts, after it ends, or in a gap of it) is a frame whose motion is unknown
 (``Frame.odom_known`` False), and so is the first scan after such a stretch (its motion since the scan before is
 unknown too); they are counted in one warning.  A log without any odometry (no Odometry topic, no odom->base
 transform) gives frames that all say so: it is read lidar-only (:attr:`~mcnkit.io.base.LogReader.lidar_only`).
-
-Header stamps are judged against the record times: the offset ``stamp - record time`` of each message is
-compared with the median offset of the last 15 messages of its stream (seeded with the first ones), so a clock
-that runs at a constant offset (a bag re-recorded later) is fine, while one stamp that jumped (damaged bytes)
-is dropped before it can hold up the scans behind it or make later odometry look as if it went backwards.
 """
 
 from __future__ import annotations
@@ -43,6 +39,7 @@ from mcnkit.io.decode import MessageDecoder
 from mcnkit.io.errors import PARSE_ERRORS, LogError, as_log_error, warn_skipped
 from mcnkit.io.plausible import check_spec, spec_problem
 from mcnkit.io.sources import Connection, RawSource
+from mcnkit.io.stampcheck import StampCheck
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
 
 __all__ = ["BagLog"]
@@ -53,39 +50,8 @@ POSE_TYPES = (ODOM_TYPE, "geometry_msgs/msg/PoseStamped")
 TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
 MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
 _GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
-STAMP_TOLERANCE_S = 3.0
-_STAMP_TOLERANCE_NS = int(STAMP_TOLERANCE_S * 1e9)
 _PENDING_NS = 10_000_000_000
 _SPEC_SCANS = 5  # the scanner is what most of the first scans say
-
-
-class _StampCheck:
-    """Whether a message's ``header stamp - record time`` is within ``STAMP_TOLERANCE_S`` of its stream's median
-    (of the last 15 offsets, refreshed every 8 messages)."""
-
-    def __init__(self) -> None:
-        self.offsets: deque[int] = deque(maxlen=15)
-        self._median: int | None = None
-        self._since = 0
-
-    def seed(self, offset: int) -> bool:
-        """Adds a first offset; True once the seed is complete."""
-        self.offsets.append(offset)
-        self._median = None
-        return len(self.offsets) == self.offsets.maxlen
-
-    def ok(self, offset: int) -> bool:
-        """Judges one offset (every offset, kept or not, moves the median: a lasting clock change is followed)."""
-        self.offsets.append(offset)
-        self._since += 1
-        if self._median is None or self._since >= 8:
-            ordered = sorted(self.offsets)
-            self._median, self._since = ordered[len(ordered) // 2], 0
-        if abs(offset - self._median) <= _STAMP_TOLERANCE_NS:
-            return True
-        ordered = sorted(self.offsets)  # the median may just have moved (a lasting change)
-        self._median, self._since = ordered[len(ordered) // 2], 0
-        return abs(offset - self._median) <= _STAMP_TOLERANCE_NS
 
 
 def _pick(conns: list[TopicInfo], preferred: str) -> str | None:
@@ -280,9 +246,9 @@ class BagLog(LogReader):
         except PARSE_ERRORS:
             return None
 
-    def _stamp_checks(self, scan_topic: str, odom_topic: str) -> tuple[_StampCheck, _StampCheck]:
+    def _stamp_checks(self, scan_topic: str, odom_topic: str) -> tuple[StampCheck, StampCheck]:
         """Header stamps against record times, seeded with the first messages of each stream."""
-        scans, odoms = _StampCheck(), _StampCheck()
+        scans, odoms = StampCheck(), StampCheck()
         for conn, t, raw in self._src.messages([scan_topic]):
             if (s := self._decoded_scan(conn, t, raw)) is not None and scans.seed(s[0] - t):
                 break
@@ -371,7 +337,7 @@ class BagLog(LogReader):
         a = (a0 + u * da + math.pi) % (2 * math.pi) - math.pi
         return x0 + u * (x1 - x0), y0 + u * (y1 - y0), a
 
-    def _scan_ok(self, conn: Connection, t: int, raw: bytes | memoryview, n_beams: int, check: _StampCheck,
+    def _scan_ok(self, conn: Connection, t: int, raw: bytes | memoryview, n_beams: int, check: StampCheck,
                  skipped: Counter[str]) -> tuple[int, np.ndarray] | None:
         """A scan's stamp and ranges, or None (counted in ``skipped``) when it cannot be a frame."""
         s = self._decoded_scan(conn, t, raw)
@@ -387,7 +353,7 @@ class BagLog(LogReader):
 
     def _scan_only_frames(self, scan_topic: str, spec: LidarSpec, skipped: Counter[str]) -> Iterator[Frame]:
         """A log without odometry: every frame's motion is unknown (its odometry the origin)."""
-        check = _StampCheck()
+        check = StampCheck()
         for conn, t, raw in self._src.messages([scan_topic]):
             if (s := self._decoded_scan(conn, t, raw)) is not None and check.seed(s[0] - t):
                 break

@@ -174,13 +174,16 @@ def _partial_zstd(data: bytes | memoryview, size: int) -> bytes:
 
 
 def _chunk_messages(src: FileBytes, path: Path, index: ChunkIndex, channels: set[int]) -> list[tuple[int, int, bytes]]:
+    if index.chunk_start_offset + index.chunk_length > src.size:
+        raise ValueError(f"the chunk index points past the end of the file ({index.chunk_start_offset})")
     check_size(path, f"a chunk at byte {index.chunk_start_offset}", index.chunk_length, MAX_CHUNK_BYTES)
     buf = src.read_at(index.chunk_start_offset, index.chunk_length)
     op, _length = _RECORD.unpack_from(buf, 0)
     if op != _OP_CHUNK:
         raise ValueError(f"no chunk record at offset {index.chunk_start_offset}")
     _start, _end, size, crc = struct.unpack_from("<QQQI", buf, 9)
-    check_size(path, f"a chunk at byte {index.chunk_start_offset}", size, MAX_CHUNK_BYTES)
+    if size > MAX_CHUNK_BYTES:  # the file does not hold it: a damaged size field
+        raise ValueError(f"chunk at byte {index.chunk_start_offset} claims {size} bytes uncompressed")
     kind, off = take_string(buf, 37)
     (rlen,) = struct.unpack_from("<Q", buf, off)
     records = decompress_chunk(kind, memoryview(buf)[off + 8 : off + 8 + rlen], size)

@@ -102,7 +102,11 @@ def _chunk(src: ByteSource, path: Path, out: McapWalk, pos: int, body: bytes, cu
     """Takes one chunk record (``body`` as far as the file holds it); raises ValueError when the walk must stop."""
     out.chunks += 1
     size, chunk_crc = struct.unpack_from("<QI", body, 16)
-    check_size(path, f"a chunk at byte {pos}", size, MAX_CHUNK_BYTES)
+    if size > MAX_CHUNK_BYTES:  # more than the file holds: a damaged size field
+        if cut:
+            raise ValueError(f"chunk claims {size} bytes uncompressed")
+        out.damaged_chunks += 1  # its framing holds: skip just this chunk
+        return
     kind, o = take_string(body, 28)
     (rlen,) = struct.unpack_from("<Q", body, o)
     start = o + 8

@@ -131,7 +131,11 @@ def _chunk_bytes(src: FileBytes, path: Path, fields: dict[str, bytes], dstart: i
                  partial: bool = False) -> bytes:
     """A chunk record's decompressed records (ValueError/struct.error when damaged)."""
     (size,) = _U32.unpack(fields["size"])
-    check_size(path, f"a chunk at byte {dstart}", max(size, dlen), MAX_CHUNK_BYTES)
+    if not partial and dstart + dlen > src.size:
+        raise ValueError(f"the chunk at byte {dstart} runs {dstart + dlen - src.size} bytes past the end of the file")
+    check_size(path, f"a chunk at byte {dstart}", dlen, MAX_CHUNK_BYTES)
+    if size > MAX_CHUNK_BYTES:  # the file does not hold it: a damaged size field
+        raise ValueError(f"chunk at byte {dstart} claims {size} bytes uncompressed")
     return _decompress(fields.get("compression", b"none"), src.read_at(dstart, dlen), size, partial)
 
 

@@ -113,6 +113,9 @@ class Ros1BagSource(RawSource):
 
     def _recover(self, why: str) -> None:
         walk = walk_ros1_records(self.path, self._src)  # raises LogError when this is no bag at all
+        if walk.stopped_at is not None and not walk.connections and not len(walk.index):
+            raise LogError(self.path, f"{why.rstrip('.')}; nothing readable record by record: damaged or cut off from "
+                                      f"byte {walk.stopped_at} on ({walk.stop_reason})")
         self.connections = [
             Connection((str(self.path), c.conn_id), c.topic, normalize_msgtype(c.msgtype), "ros1", c.definition,
                        "msg", walk.index.counts.get(c.conn_id, 0))
@@ -200,6 +203,8 @@ class McapSource(RawSource):
             if not isinstance(src, FileBytes):
                 src.close()
         self._walks[str(f)] = walk
+        if walk.stopped_at is not None and not walk.channels and not len(walk.index):
+            raise LogError(f, f"nothing readable: damaged or cut off from byte {walk.stopped_at} on ({walk.stop_reason})")
         if walk.stopped_at is not None:
             warn_skipped(f, f"no usable summary; read {len(walk.index)} message(s) record by record, the rest "
                          f"from byte {walk.stopped_at} on is unreadable ({walk.stop_reason})")

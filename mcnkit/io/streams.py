@@ -30,6 +30,7 @@ __all__ = ["ByteSource", "FileBytes", "StreamBytes", "compression_of", "open_dec
 _MAGICS = {b"\x1f\x8b": "gzip", b"BZh": "bz2", b"\x28\xb5\x2f\xfd": "zstd"}
 _RATIO_FLOOR = 16 << 20  # output bytes before the ratio is judged (small files of one repeated value are harmless)
 _SKIP_PIECE = 1 << 20
+_KEEP = 1 << 20  # decompressed bytes kept behind the read position of a stream
 
 
 def compression_of(head: bytes) -> str | None:
@@ -124,26 +125,36 @@ class FileBytes:
 
 
 class StreamBytes:
-    """A whole-file compressed log read by offset in its decompressed bytes: forward reads continue the stream,
-    a read before the current position reopens it."""
+    """A whole-file compressed log read by offset in its decompressed bytes: forward reads continue the stream, a
+    read within the last ``_KEEP`` bytes is served from them (messages a little out of file order), a read before
+    them opens the stream again."""
 
     def __init__(self, path: Path, kind: str) -> None:
         self._path, self._kind = path, kind
         self._stream = open_decompressed(path, kind)
         self._pos = 0
+        self._kept = bytearray()  # the bytes just before _pos
 
     def read_at(self, offset: int, n: int) -> bytes:
         """``n`` bytes from ``offset`` of the decompressed data (fewer at its end)."""
-        if offset < self._pos:
+        kept_from = self._pos - len(self._kept)
+        if offset < kept_from:
             self._stream.close()
-            self._stream, self._pos = open_decompressed(self._path, self._kind), 0
+            self._stream, self._pos, self._kept = open_decompressed(self._path, self._kind), 0, bytearray()
+        elif offset < self._pos:
+            head = bytes(self._kept[offset - kept_from : offset - kept_from + n])
+            return head + (self.read_at(self._pos, n - len(head)) if len(head) < n else b"")
         while self._pos < offset:
-            piece = self._stream.read(min(_SKIP_PIECE, offset - self._pos))
-            if not piece:
+            if not self._take(min(_SKIP_PIECE, offset - self._pos)):
                 return b""
-            self._pos += len(piece)
+        return self._take(n)
+
+    def _take(self, n: int) -> bytes:
         data = self._stream.read(n)
         self._pos += len(data)
+        self._kept += data
+        if len(self._kept) > 2 * _KEEP:
+            del self._kept[: len(self._kept) - _KEEP]
         return data
 
     def close(self) -> None:

@@ -137,7 +137,7 @@ def test_an_mcap_without_a_usable_summary_streams_and_gives_the_same_frames(tmp_
         path.write_bytes(gzip.compress(full.read_bytes(), compresslevel=1))
     got, peak = _read(path)
     assert _same(got, indexed[: len(got)]) and len(got) > (100 if kind == "cut" else 199)
-    assert peak < 4 << 20 < full.stat().st_size / 4
+    assert peak < 6 << 20 < full.stat().st_size / 3  # a chunk and a stream's buffers, not the file
 
 
 def test_an_indexed_bag_of_uncompressed_chunks_never_reads_the_camera(tmp_path: Path, frames: list[Frame],
