@@ -23,6 +23,11 @@ For the MCAP formats, every silently changed mutant is also checked with the ``m
 none of them may be one a CRC catches (a rosbag2 folder written by rosbags stores no CRCs; its silent changes, like
 sqlite3's, are plausible values no checksum covers).
 
+Then the hostile inputs of :mod:`benchmarks.hostile` (links to ``/dev/zero``, a FIFO, a ``.log.gz`` of one 3 GiB
+line, a compression bomb, a sparse 10 GiB MCAP of zeros, a chunk claiming 3 GiB, a damaged sqlite3 bag, a CARMEN
+line that lost a field) run the same way: each must be refused with one line (exit 2) or read with a warning and no
+impossible step, within 10 s and 500 MB (``--no-hostile`` skips them).
+
     .venv/bin/python -m benchmarks.bench_fuzz --seed 0 --mutants 200 --workers 2 --out benchmarks/results/fuzz.json
 """
 
@@ -32,6 +37,7 @@ import argparse
 import contextlib
 import gzip
 import io
+import itertools
 import json
 import math
 import os
@@ -51,6 +57,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks import hostile
 from benchmarks.common import ROOT
 from mcnkit.io import LogContent, LogError, open_log, write_log
 from mcnkit.types import Frame
@@ -63,10 +70,10 @@ MCAP_FORMATS = ("mcap", "ros2-mcap", "mcap-ros1")
 """Formats whose data file is an MCAP: every silently changed mutant of these is checked against the CRCs."""
 CLASSES = ["clean error", "warned", "unchanged", "changed silently", "impossible", "traceback", "hang", "memory"]
 
-# What a robot can do, stated here independently of the reader's own rules (mcnkit.io.plausible): a range is a
-# distance (not negative) no farther than twice the scanner's stated limit (values just beyond the limit are the
-# usual "no return" marks); odometry is finite and moves at most 10 m/s and a full turn per second between two
-# scans, plus 2 m / 1 rad for coarse stamps; stamps do not go backwards.
+# What a robot can do, stated here independently of the reader's own rules (mcnkit.io.plausible): a scanner reaches
+# 0 to 1 km (any reading outside its interval, or not finite, is "no return", ROS REP 117); odometry is finite and
+# moves at most 10 m/s and a full turn per second between two scans, plus 2 m / 1 rad for coarse stamps; stamps do
+# not go backwards.
 SPEED_M_S, TURN_RAD_S, SLACK_M, SLACK_RAD = 10.0, 2 * math.pi, 2.0, 1.0
 
 
@@ -79,9 +86,6 @@ def impossible(frames: list[Frame]) -> str | None:
                 and abs(spec.angle_increment_rad) * (spec.n_beams - 1) <= 2 * math.pi + 1e-6
                 and 0 <= spec.range_min_m < spec.range_max_m <= 1000.0):
             return f"scanner {spec}"
-        r = f.scan.ranges_m[np.isfinite(f.scan.ranges_m)]
-        if len(r) and (r.min() < 0 or r.max() > 2 * spec.range_max_m):
-            return f"range {r.min()}..{r.max()} (scanner limit {spec.range_max_m})"
         o = f.odom
         if not all(math.isfinite(v) and abs(v) <= 1e7 for v in (o.x_m, o.y_m, o.yaw_rad)):
             return f"odometry {o}"
@@ -330,8 +334,11 @@ def _run(args: argparse.Namespace, root: Path) -> dict[str, Any]:
         "mcap_changed_silently": sum(t.get("changed_silently_crc_flagged", 0) for t in table.values()),
         "peak_rss_mb": max(t["peak_rss_mb"] for t in table.values()),
     }
+    hostile_results = run_hostile(root, content, src, args.max_as_gb) if args.hostile else {}
+    verdict["hostile_failed"] = [name for name, r in hostile_results.items() if r["problem"]]
     verdict["ok"] = (verdict["tracebacks"] == verdict["hangs"] == verdict["over_memory"]
-                     == verdict["impossible_values_passed_on"] == verdict["mcap_changed_silently"] == 0)
+                     == verdict["impossible_values_passed_on"] == verdict["mcap_changed_silently"] == 0
+                     and not verdict["hostile_failed"])
     sizes = {fmt: data_file(p).stat().st_size for fmt, p in clean.items()}
     details = {fmt: [r for r in rows if r["class"] in ("traceback", "hang", "memory", "impossible", "changed silently")]
                for fmt, rows in results.items()}
@@ -340,8 +347,90 @@ def _run(args: argparse.Namespace, root: Path) -> dict[str, Any]:
         "seed": args.seed, "mutants_per_format": args.mutants, "scans": args.scans, "slam_scans": args.slam_scans,
         "source_bytes": sizes, "timeout_s": args.timeout, "max_rss_mb": args.max_rss_mb,
         "machine": platform.platform(), "wall_s": round(time.perf_counter() - t0, 1),
-        "table": table, "verdict": verdict, "notable": details,
+        "table": table, "verdict": verdict, "notable": details, "hostile": hostile_results,
     }
+
+
+def largest_known_step(frames: list[Frame]) -> float:
+    """The longest odometry step a frame says is known motion (m)."""
+    steps = [math.hypot(b.odom.x_m - a.odom.x_m, b.odom.y_m - a.odom.y_m)
+             for a, b in itertools.pairwise(frames) if b.odom_known]
+    return max(steps, default=0.0)
+
+
+def examine_hostile(path: Path) -> dict[str, Any]:
+    """``mcnkit info`` and a full frame read of a hostile file, each timed."""
+    res: dict[str, Any] = {}
+    try:
+        t0 = time.perf_counter()
+        code, _, err = run_info(path)
+        res.update(info_exit=code, info_stderr=err.strip().splitlines(), info_s=round(time.perf_counter() - t0, 2))
+        t0 = time.perf_counter()
+        frames, warned, error = read_frames(path)
+        res.update(read_s=round(time.perf_counter() - t0, 2), warnings=warned, error=error,
+                   frames=None if frames is None else len(frames),
+                   largest_known_step_m=None if frames is None else round(largest_known_step(frames), 2))
+    except BaseException:  # noqa: BLE001 - what the benchmark looks for
+        res["traceback"] = traceback.format_exc()[-2000:]
+    return res
+
+
+def hostile_ok(expect: str, res: dict[str, Any]) -> str | None:
+    """Why a hostile case's outcome is wrong (None: it is as it must be; see :mod:`benchmarks.hostile`)."""
+    if res.get("hang"):
+        return "hang"
+    if "traceback" in res or res.get("exit_code", 0) != 0:
+        return "traceback"
+    if res["peak_rss_mb"] > hostile.MAX_RSS_MB or max(res["info_s"], res["read_s"]) > hostile.TIME_LIMIT_S:
+        return "over memory or time"
+    lines = res["info_stderr"]
+    if not all(line.startswith(("warning: ", "mcnkit info: ")) for line in lines):
+        return "a message over several lines"
+    refused = res["info_exit"] == 2 and res["error"] is not None and len(lines) >= 1
+    if expect == "refuse" and not refused:
+        return "not refused"
+    if expect == "read" and (res["info_exit"] != 0 or res["frames"] is None or not res["warnings"]):
+        return "not read with a warning"
+    if res["frames"] is not None and res["largest_known_step_m"] > hostile.MAX_KNOWN_STEP_M:
+        return f"a known step of {res['largest_known_step_m']} m"
+    return None
+
+
+def run_hostile(root: Path, content: LogContent, carmen: Path, max_as_gb: int) -> dict[str, dict[str, Any]]:
+    """Every case of :mod:`benchmarks.hostile`, each in a child process of its own (killed after twice the time
+    limit), classified by :func:`hostile_ok`."""
+    out = {}
+    for k, name in enumerate(hostile.CASES):
+        folder = root / f"hostile-{k}"
+        folder.mkdir()
+        expect, path = hostile.write_hostile(name, folder, content, carmen)
+        result = folder / "result.json"
+        t0 = time.perf_counter()
+        pid = os.fork()
+        if pid == 0:  # child
+            code = 0
+            try:
+                resource.setrlimit(resource.RLIMIT_AS, (max_as_gb << 30, max_as_gb << 30))
+                result.write_text(json.dumps(examine_hostile(path)))
+            except BaseException:  # noqa: BLE001
+                code = 1
+            os._exit(code)
+        while True:
+            done, status, usage = os.wait4(pid, os.WNOHANG)
+            if done:
+                break
+            if time.perf_counter() - t0 > 2 * hostile.TIME_LIMIT_S:
+                os.kill(pid, signal.SIGKILL)
+            time.sleep(0.02)
+        killed = os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGKILL
+        res = json.loads(result.read_text()) if result.exists() else {}
+        res.update(expect=expect, seconds=round(time.perf_counter() - t0, 2), hang=killed,
+                   peak_rss_mb=round(usage.ru_maxrss / 1024, 1),
+                   exit_code=0 if killed else (os.WEXITSTATUS(status) if os.WIFEXITED(status) else -1))
+        res["problem"] = hostile_ok(expect, res)
+        out[name] = res
+        shutil.rmtree(folder, ignore_errors=True)
+    return out
 
 
 def markdown(report: dict[str, Any]) -> str:
@@ -353,10 +442,18 @@ def markdown(report: dict[str, Any]) -> str:
     for fmt, row in report["table"].items():
         lines.append(f"| {fmt} | " + " | ".join(str(row[c]) for c in cols)
                      + f" | {row['peak_rss_mb']:.0f} | {row['max_seconds']:.1f} |")
+    if report.get("hostile"):
+        lines += ["", "| hostile input | must | info exit | stderr lines | frames | largest known step m | peak RSS MB "
+                  "| s | outcome |", "|---|---|---|---|---|---|---|---|---|"]
+        for name, r in report["hostile"].items():
+            lines.append(f"| {name} | {r['expect']} | {r.get('info_exit')} | {len(r.get('info_stderr', []))} "
+                         f"| {r.get('frames')} | {r.get('largest_known_step_m')} | {r['peak_rss_mb']:.0f} "
+                         f"| {r['seconds']} | {r['problem'] or 'as it must'} |")
     v = report["verdict"]
     lines += ["", f"tracebacks {v['tracebacks']}, hangs {v['hangs']}, over {report['max_rss_mb']:.0f} MB "
               f"{v['over_memory']}, impossible values passed on {v['impossible_values_passed_on']}, silently changed "
-              f"MCAP mutants a CRC flags {v['mcap_changed_silently']} (peak RSS {v['peak_rss_mb']:.0f} MB): "
+              f"MCAP mutants a CRC flags {v['mcap_changed_silently']}, hostile inputs not as they must be "
+              f"{v['hostile_failed']} (peak RSS {v['peak_rss_mb']:.0f} MB): "
               + ("PASS" if v["ok"] else "FAIL")]
     return "\n".join(lines) + "\n"
 
@@ -376,6 +473,8 @@ def main() -> int:
     p.add_argument("--timeout", type=float, default=120.0, help="seconds before a mutant counts as a hang (default 120)")
     p.add_argument("--max-rss-mb", type=float, default=1024.0, help="peak RSS allowed per mutant (default 1024)")
     p.add_argument("--max-as-gb", type=int, default=16, help="address-space limit of each child, GiB (default 16)")
+    p.add_argument("--no-hostile", dest="hostile", action="store_false",
+                   help="skip the hostile inputs of benchmarks/hostile.py (run by default)")
     p.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "fuzz.json",
                    help="JSON report (default benchmarks/results/fuzz.json); a markdown table goes beside it (.md)")
     args = p.parse_args()
