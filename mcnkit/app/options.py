@@ -16,7 +16,7 @@ A field without a default is a required option.  The arguments of :func:`add_opt
 renames a flag (``{"source": "--from"}``; a renamed flag of a ``bool`` that defaults to True turns it off),
 ``choices`` narrows a ``str`` field, ``const`` lets a flag stand alone for the value it names (``--connect``),
 and ``help`` gives the help of a field that has no docstring (or of a renamed flag that turns a field off).  The
-parsed values land in ``args`` under the field names; :func:`from_args` builds the dataclass from them.
+parsed values land in ``args`` under the field names; :func:`from_args` builds the dataclass from them::
 
     @dataclass(frozen=True, kw_only=True)
     class InfoOptions:

@@ -86,7 +86,7 @@ class Exp2Config:
     curve: bool = True
     """also score SLAM alone, the networks and the all-free fill along the run (exp2_curve.*)"""
     reuse_runs: bool = True
-    """reuse cached SLAM results (runs_dir/*.npz) made with the same settings"""
+    """reuse cached SLAM results (``runs_dir/*.npz``) made with the same settings"""
     runs_dir: str | None = None
     """where each house's SLAM result is cached (default OUT/runs)"""
     progress: bool = True

@@ -1,9 +1,10 @@
 """The occupancy map of one particle's lineage, kept up to date by differences instead of rebuilt.
 
-A particle's output map is its update scans ray-cast from its corrected poses (:func:`~mcnkit.slam.raycast.
-ray_cast_counts`).  Rebuilding that at every filter update costs time quadratic in the run's length.  A
-:class:`LineageMap` holds the hit and pass counts of one sequence of poses; :meth:`LineageMap.sync` moves it to
-another particle's poses by removing the scans whose pose changed and casting them again at the new pose.
+A particle's output map is its update scans ray-cast from its corrected poses
+(:func:`~mcnkit.slam.raycast.ray_cast_counts`).  Rebuilding that at every filter update costs time quadratic in
+the run's length.  A :class:`LineageMap` holds the hit and pass counts of one sequence of poses;
+:meth:`LineageMap.sync` moves it to another particle's poses by removing the scans whose pose changed and
+casting them again at the new pose.
 Lineages share their ancestry (resampling makes the particles coalesce a few updates back), so a sync
 usually touches the last few scans only.  The result is exactly :func:`ray_cast_counts` of those poses.
 

@@ -27,6 +27,7 @@ bend that every pass through a loop shares leaves the revisits consistent.
 
 Example (a square room seen from two poses; the match is good to the field's cells, 5 cm, and a trajectory whose
 second pose is 3° off scores 3° worse):
+
     >>> import numpy as np
     >>> wall = np.linspace(-2.0, 2.0, 161)
     >>> room = np.r_[np.c_[wall, wall * 0 + 2], np.c_[wall, wall * 0 - 2], np.c_[wall * 0 + 2, wall], np.c_[wall * 0 - 2, wall]]

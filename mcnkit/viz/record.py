@@ -110,7 +110,7 @@ def mcn_sinks(mcn: McnSlam, *, rrd: Path | None = None, recording_id: str | None
 
     The recording goes to ``rrd`` and/or ``live`` (a running viewer, a server of its own: see
     :mod:`mcnkit.app.recording`); ``config`` (the run's whole configuration) is written into it.  With
-    ``keep_serving`` a served recording stays up after a finished run (see :func:`mcnkit.app.sinks.serve_on`).
+    ``keep_serving`` a served recording stays up after a finished run (see :func:`serve_on`).
     """
     from mcnkit.app.drive import CallbackSink, ProgressSink
     from mcnkit.app.sinks import McnStats
