@@ -27,6 +27,9 @@ class ExploreConfig:
     """A new plan (goal and path) every time the robot has driven this far, and whenever it reached its goal [m]."""
     plan_resolution_m: float = 0.05
     """Cell size of the planning grid, the SLAM map pooled on it (occupied > free > unknown) [m]."""
+    plan_max_cells: int = 400_000
+    """A map with more cells than this at ``plan_resolution_m`` is planned on coarser cells (a whole multiple), so
+    a planning step stays fast in a large building."""
     plan_margin_m: float = 0.05
     """Paths keep the robot radius plus this from the SLAM map's walls (less than the simulator's margin, which
     defines the reachable space: a map's walls come out a little thicker than the true ones) [m]."""
@@ -53,7 +56,7 @@ class ExploreConfig:
 
     def __post_init__(self) -> None:
         if not (self.budget_m > 0 and self.replan_m > 0 and self.plan_resolution_m > 0 and self.segment_m > 0
-                and self.plan_margin_m >= 0):
+                and self.plan_margin_m >= 0 and self.plan_max_cells > 0):
             raise ValueError(f"budget, replan distance, planning resolution and segment must be positive: {self}")
         if not 0 < self.stop_coverage <= 1:
             raise ValueError(f"stop_coverage must be in (0, 1], got {self.stop_coverage}")
@@ -85,6 +88,9 @@ class GainConfig:
     whole houses filling the window; the margin leaves room for the part not seen yet) [m]."""
     window_min_m: float = 8.0
     """The window's side is at least this (early maps are small) [m]."""
+    window_max_m: float = 30.0
+    """A map whose window would be wider than this (a building, not a house) is completed on a window of this side
+    centred on the robot instead [m]."""
     beams: int = 180
     """Rays per viewpoint of the visibility cast."""
 
@@ -95,3 +101,5 @@ class GainConfig:
             raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
         if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:
             raise ValueError(f"cost_lambda_per_m and window_margin_m must be >= 0, cost_floor_m > 0: {self}")
+        if not 0 < self.window_min_m <= self.window_max_m:
+            raise ValueError(f"need 0 < window_min_m <= window_max_m: {self}")

@@ -59,9 +59,11 @@ def mark_seen(free: BoolArray, grid: GridSpec, seen: BoolArray, xy_m: NDArray[np
 
 
 def reachable_free(raster: PlanRaster, safe: BoolArray, start_xy_m: NDArray[np.floating], range_m: float, rays: int,
-                   lattice_m: float) -> BoolArray:
-    """(H, W) the free cells a scan sees from the safe cells on a ``lattice_m`` lattice, and from the start."""
+                   lattice_m: float, max_points: int = 2000) -> BoolArray:
+    """(H, W) the free cells a scan sees from the safe cells on a ``lattice_m`` lattice (coarser where that would
+    be more than ``max_points`` places: a large building), and from the start."""
     step = max(int(round(lattice_m / raster.grid.resolution_m)), 1)
+    step = max(step, int(np.ceil(np.sqrt(safe.sum() / max_points))))
     lattice = np.zeros_like(safe)
     lattice[::step, ::step] = True
     rc = np.argwhere(safe & lattice)

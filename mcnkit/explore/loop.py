@@ -14,7 +14,8 @@ odometry) in a plan at a random safe pose and runs, per frame (``1 / scan_rate_h
 4. FastSLAM steps on that frame; the coverage (:mod:`mcnkit.explore.coverage`) is updated from the true pose.
 
 It stops when no frontier is reachable (``explored``), the path budget is spent (``budget``), the coverage reached
-``stop_coverage`` (``coverage``) or the time ran out (``time``: three times the budget at full speed).  Goals the
+``stop_coverage`` (``coverage``), the time ran out (``time``: three times the budget at full speed) or the robot
+stands where its map leaves it no room to move (``stuck``).  Goals the
 robot reached without their frontier going away, or got no closer to for ``stuck_s``, are blacklisted.
 
 Randomness: one seed gives the start pose, the sensor and odometry noise, the SLAM's and the sampler's streams
@@ -242,7 +243,7 @@ class Explorer:
         self.plans.append(PlanStep.of(self.n_frames - 1, decision))
         if decision.choice is None or decision.path_m is None:
             self._path, self._goal = None, None
-            self.stop_reason = "explored"
+            self.stop_reason = "explored" if decision.field.start is not None else "stuck"
             return decision
         goal_xy = decision.points.xy_m[decision.choice]
         if self._goal is None or np.hypot(*(goal_xy - self._goal.xy_m)) > cfg.goal_tolerance_m:
@@ -261,7 +262,7 @@ class Explorer:
         for r in updates[len(self._planning_ranges) :]:
             self._planning_ranges.append(np.where(np.isfinite(r), r, np.float32(self._no_return_m)))
         self.lineage.sync(self.slam.update_poses(), self._planning_ranges)
-        view = planning_view(self.lineage, self.estimate, self.config.plan_resolution_m)
+        view = planning_view(self.lineage, self.estimate, self.config.plan_resolution_m, self.config.plan_max_cells)
         black = np.asarray(self.blacklist).reshape(-1, 2)
         d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black)
         return replace(d, cpu_s=time.process_time() - t0)

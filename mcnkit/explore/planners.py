@@ -59,10 +59,14 @@ class PlanningView:
     lineage: LineageMap
 
 
-def planning_view(lineage: LineageMap, pose: F64, resolution_m: float) -> PlanningView:
-    """The map of ``lineage`` pooled onto a grid of ``resolution_m`` covering what it saw and the robot, its thin
-    unknown cells made free (:func:`mcnkit.explore.frontiers.planning_map`)."""
+def planning_view(lineage: LineageMap, pose: F64, resolution_m: float, max_cells: int | None = None) -> PlanningView:
+    """The map of ``lineage`` pooled onto a grid covering what it saw and the robot, its thin unknown cells made free
+    (:func:`mcnkit.explore.frontiers.planning_map`); cells of ``resolution_m``, or the smallest whole multiple of it
+    that keeps the grid within ``max_cells``."""
     x0, y0, x1, y1 = lineage.seen_bounds_m()
+    if max_cells is not None:
+        cells = (x1 - x0 + 2 * resolution_m) * (y1 - y0 + 2 * resolution_m) / resolution_m**2
+        resolution_m *= max(1, math.ceil(math.sqrt(cells / max_cells)))
     x0, x1 = min(x0, pose[0]) - resolution_m, max(x1, pose[0]) + resolution_m
     y0, y1 = min(y0, pose[1]) - resolution_m, max(y1, pose[1]) + resolution_m
     ox, oy = math.floor(x0 / resolution_m) * resolution_m, math.floor(y0 / resolution_m) * resolution_m
@@ -104,7 +108,7 @@ class McnPlanner:
         from mcnkit.explore.predict import predict
 
         cfg = self.config
-        pred = predict(self.net, view.lineage, cfg, self.generator)
+        pred = predict(self.net, view.lineage, cfg, self.generator, view.pose[:2])
         if len(points) == 0:
             return np.zeros(0), np.zeros(0), pred
         w = pred.window
@@ -146,11 +150,15 @@ class Decision:
 def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_radius_m: float,
            blacklist_xy_m: F64) -> Decision:
     """One planning step (see the module docstring); paths keep ``robot_radius_m + config.plan_margin_m`` from the
-    map's walls."""
+    map's walls, or only the radius when that leaves no frontier within reach (a door the map draws narrower than it
+    is, a robot that drifted close to a wall)."""
     t0 = time.process_time()
     frontiers = find_frontiers(view.image, view.grid, config)
-    field_ = cost_field(view.image, view.grid, view.pose[:2], robot_radius_m, config.plan_margin_m)
-    points = viewpoints(frontiers, field_, config, blacklist_xy_m)
+    for margin in (config.plan_margin_m, 0.0):  # no frontier within reach: squeeze through with no margin
+        field_ = cost_field(view.image, view.grid, view.pose[:2], robot_radius_m, margin)
+        points = viewpoints(frontiers, field_, config, blacklist_xy_m)
+        if len(points) or frontiers.n_segments == 0:
+            break
     gain, score, pred = planner.score(view, points)
     choice = None
     path = None

@@ -3,7 +3,8 @@
 The completion nets were trained with the whole house filling the 64 × 64 window (its bounding box padded
 square).  While exploring, the house's extent is unknown: the window is the SLAM map's seen bounds plus
 ``window_margin_m`` (room for what lies past the frontiers), at least ``window_min_m`` wide, padded square
-(:func:`choose_window`; ``benchmarks/bench_explore.py --window-study`` measures margins on training houses).  The
+(:func:`choose_window`; ``benchmarks/bench_explore.py --study`` measures margins on training houses); a building
+wider than ``window_max_m`` is completed on a window of that side around the robot.  The
 best particle's map is pooled onto it (occupied > free > unknown) and the net draws K completions; the cells the
 map knows keep their label in every sample.
 
@@ -31,6 +32,7 @@ from mcnkit.types import OCCUPIED, UNKNOWN, GridSpec
 __all__ = ["Prediction", "choose_window", "complete_on", "predict"]
 
 F32 = NDArray[np.float32]
+F64 = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -56,12 +58,18 @@ class Prediction:
 
 
 def choose_window(bounds_m: tuple[float, float, float, float], config: GainConfig, size: int,
-                  min_resolution_m: float) -> GridSpec:
+                  min_resolution_m: float, robot_xy_m: F64 | None = None) -> GridSpec:
     """The seen bounds ``(x0, y0, x1, y1)`` plus ``window_margin_m``, at least ``window_min_m`` wide, padded square
-    on ``size``² cells (never finer than ``min_resolution_m``)."""
+    on ``size``² cells (never finer than ``min_resolution_m``); wider than ``window_max_m``: a square of that side
+    centred on ``robot_xy_m`` (on the bounds' centre without it)."""
     x0, y0, x1, y1 = bounds_m
     extent = max(x1 - x0, y1 - y0)
     margin = max(config.window_margin_m, (config.window_min_m - extent) / 2)
+    if extent + 2 * margin > config.window_max_m:
+        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2]) if robot_xy_m is None else np.asarray(robot_xy_m)
+        half = config.window_max_m / 2
+        return map_window((centre[0] - half, centre[1] - half, centre[0] + half, centre[1] + half), size, 0.0,
+                          min_resolution_m)
     return map_window(bounds_m, size, margin, min_resolution_m)
 
 
@@ -75,8 +83,8 @@ def complete_on(net: CompletionNet, partial: F32, k: int, generator: torch.Gener
 
 
 def predict(net: CompletionNet, lineage: LineageMap, config: GainConfig, generator: torch.Generator,
-            size: int = 64) -> Prediction:
+            robot_xy_m: F64 | None = None, size: int = 64) -> Prediction:
     """K completions of the map held by ``lineage`` on the window of :func:`choose_window`."""
-    window = choose_window(lineage.seen_bounds_m(), config, size, lineage.resolution_m)
+    window = choose_window(lineage.seen_bounds_m(), config, size, lineage.resolution_m, robot_xy_m)
     partial = lineage.pooled(window).astype(np.float32)
     return Prediction(window, partial, complete_on(net, partial, config.samples, generator)[0])

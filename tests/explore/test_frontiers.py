@@ -6,7 +6,7 @@ import numpy as np
 
 from mcnkit.explore.config import ExploreConfig
 from mcnkit.explore.frontiers import find_frontiers, planning_map, viewpoints
-from mcnkit.explore.paths import cost_field
+from mcnkit.explore.paths import cost_field, traversable_cells
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec
 
 GRID = GridSpec(0.1, 0.0, 0.0, 80, 40)
@@ -59,3 +59,29 @@ def test_viewpoints_are_reachable_nearest_first_and_skip_the_blacklist() -> None
     walled[:, 30] = OCCUPIED  # the frontier is now behind a wall
     field = cost_field(walled, GRID, np.array([1.05, 0.85]), 0.2, 0.05)
     assert len(viewpoints(find_frontiers(walled, GRID, cfg), field, cfg, np.zeros((0, 2)))) == 0
+
+
+def test_a_door_the_map_draws_narrow_is_squeezed_through() -> None:
+    """A 0.5 m door (its middle 0.25 m from both jambs): too narrow for radius 0.2 m + 0.05 m margin, wide enough
+    for the radius alone."""
+    from mcnkit.explore.planners import FrontierPlanner, decide
+
+    grid = GridSpec(0.05, 0.0, 0.0, 80, 40)
+    image = np.full(grid.shape, UNKNOWN, np.float32)
+    image[:, :60] = FREE
+    image[[0, -1], :60] = OCCUPIED
+    image[:, 0] = OCCUPIED
+    image[:, 30] = OCCUPIED
+    image[15:25, 30] = FREE  # rows 15-24: 0.5 m
+    view = _View(grid, image, np.array([0.75, 1.0, 0.0]))
+    d = decide(view, FrontierPlanner(), ExploreConfig(plan_margin_m=0.05), 0.2, np.zeros((0, 2)))
+    assert d.choice is not None and d.path_m is not None and d.path_m[-1][0] > 2.0
+    assert d.field.traversable[:, 30].sum() == 2  # the door's two middle cells, 0.25 m from both jambs
+    assert not traversable_cells(image, 0.05, 0.2, 0.05)[0][:, 30].any()  # none with the margin
+
+
+class _View:
+    """A planning view without a lineage (the frontier planner needs none)."""
+
+    def __init__(self, grid: GridSpec, image: np.ndarray, pose: np.ndarray) -> None:
+        self.grid, self.image, self.pose, self.lineage = grid, image, pose, None

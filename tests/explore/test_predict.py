@@ -34,3 +34,12 @@ def test_completions_keep_the_known_cells() -> None:
     known = partial != UNKNOWN
     assert (samples[:, known] == partial[known]).all() and (mean[known] == partial[known]).all()
     assert set(np.unique(samples)) <= {FREE, UNKNOWN, OCCUPIED}
+
+
+def test_a_building_wider_than_the_largest_window_is_completed_around_the_robot() -> None:
+    cfg = GainConfig(window_margin_m=2.0, window_max_m=20.0)
+    w = choose_window((0.0, 0.0, 50.0, 10.0), cfg, 64, 0.05, np.array([30.0, 4.0]))
+    assert w.resolution_m * 64 == pytest.approx(20.0)
+    assert w.origin_x_m == pytest.approx(20.0) and w.origin_y_m == pytest.approx(-6.0)
+    with pytest.raises(ValueError, match="window_min_m"):
+        GainConfig(window_min_m=40.0, window_max_m=30.0)

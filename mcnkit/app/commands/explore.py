@@ -134,7 +134,7 @@ def cmd_explore(args: argparse.Namespace) -> int:
 
 
 _STOPS = {"explored": "no reachable frontier left", "coverage": "the reachable free space is covered",
-          "budget": "path budget spent", "time": "time limit reached"}
+          "budget": "path budget spent", "time": "time limit reached", "stuck": "no room to move on the map"}
 
 
 def _write_outputs(out: Path, explorer: Any, summary: dict[str, Any]) -> None:
