@@ -15,12 +15,10 @@ Example:
 
 from __future__ import annotations
 
-import math
-
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from mcnkit.explore.rays import cast_visibility
 from mcnkit.sim import PlanRaster
 from mcnkit.types import GridSpec
 
@@ -30,32 +28,15 @@ F64 = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 
-@numba.njit(cache=True)
-def _mark(free: NDArray[np.bool_], seen: NDArray[np.bool_], origins: F64, range_cells: float, rays: int) -> None:
-    """Marks in ``seen`` the free cells rays from each origin (col, row in cells) cross before the first wall."""
-    h, w = free.shape
-    steps = int(range_cells * 2.0)
-    for i in range(origins.shape[0]):
-        ox, oy = origins[i, 0], origins[i, 1]
-        for b in range(rays):
-            ang = 2.0 * math.pi * b / rays
-            dx, dy = math.cos(ang), math.sin(ang)
-            for s in range(steps + 1):
-                t = 0.5 * s
-                c = int(math.floor(ox + dx * t))
-                r = int(math.floor(oy + dy * t))
-                if r < 0 or r >= h or c < 0 or c >= w or not free[r, c]:
-                    break
-                seen[r, c] = True
-
-
 def mark_seen(free: BoolArray, grid: GridSpec, seen: BoolArray, xy_m: NDArray[np.floating], range_m: float,
               rays: int) -> None:
     """Marks in ``seen`` (H, W), in place, the free cells a scan from each position ``xy_m`` (N, 2) sees."""
     xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
     origins = np.stack([(xy[:, 0] - grid.origin_x_m) / grid.resolution_m,
                         (xy[:, 1] - grid.origin_y_m) / grid.resolution_m], 1)
-    _mark(np.ascontiguousarray(free), seen, np.ascontiguousarray(origins), range_m / grid.resolution_m, int(rays))
+    visible = np.zeros_like(seen)
+    cast_visibility(~free[None], None, origins, rays, range_m / grid.resolution_m, mask=visible)
+    seen |= visible & free
 
 
 def reachable_free(raster: PlanRaster, safe: BoolArray, start_xy_m: NDArray[np.floating], range_m: float, rays: int,

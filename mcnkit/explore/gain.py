@@ -2,7 +2,7 @@
 
 Each sample is a whole plausible house: a scan from viewpoint ``v`` in sample ``k`` sees the cells that rays from
 ``v`` cross before they hit a wall *of that sample* (:func:`visible_gains`, rays marched half a cell at a time up
-to the sensor range, the wall cell itself seen).  What it is worth is the sum of a per-cell weight over the cells
+to the sensor range, the wall cell itself seen: :func:`mcnkit.explore.rays.cast_visibility`).  What it is worth is the sum of a per-cell weight over the cells
 it sees, averaged over the samples; the weights (:func:`cell_weights`) are
 
 * ``unknown``: the cell's area where the SLAM map does not know it (expected visible unknown area, m²);
@@ -23,12 +23,10 @@ Example:
 
 from __future__ import annotations
 
-import math
-
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from mcnkit.explore.rays import cast_visibility
 from mcnkit.types import OCCUPIED, UNKNOWN
 
 __all__ = ["cell_weights", "sample_walls", "trade_off", "visible_gains", "visible_mask"]
@@ -42,59 +40,18 @@ _START_CELLS = 0.75
 cell may hold a wall fragment next to the free space it stands in."""
 
 
-@numba.njit(cache=True)
-def _cast(walls: NDArray[np.bool_], weight: F64, origins_xy: F64, n_beams: int, range_cells: float,
-          mask: NDArray[np.bool_]) -> F64:
-    """(V, K) summed weight of the cells seen from each origin (col, row in cells) through each sample's walls;
-    marks ``mask`` (K·V > 0 only when one origin and one sample: the display's visibility)."""
-    k_n, h, w = walls.shape
-    v_n = origins_xy.shape[0]
-    out = np.zeros((v_n, k_n))
-    stamp = np.zeros((h, w), np.int64)
-    steps = int(range_cells * 2.0)
-    for v in range(v_n):
-        ox, oy = origins_xy[v, 0], origins_xy[v, 1]
-        for k in range(k_n):
-            tag = v * k_n + k + 1
-            total = 0.0
-            for b in range(n_beams):
-                ang = 2.0 * math.pi * b / n_beams
-                dx, dy = math.cos(ang), math.sin(ang)
-                for s in range(steps + 1):
-                    t = 0.5 * s
-                    c = int(math.floor(ox + dx * t))
-                    r = int(math.floor(oy + dy * t))
-                    if r < 0 or r >= h or c < 0 or c >= w:
-                        break
-                    if stamp[r, c] != tag:
-                        stamp[r, c] = tag
-                        total += weight[r, c]
-                        if mask.shape[0] > 0:
-                            mask[r, c] = True
-                    if walls[k, r, c] and t >= _START_CELLS:
-                        break
-            out[v, k] = total
-    return out
-
-
 def visible_gains(walls: BoolArray, weight: NDArray[np.floating], origins_xy_cells: NDArray[np.floating],
                   n_beams: int, range_cells: float) -> F64:
     """(V, K): for every origin (V, 2) ``[col, row]`` in cells and every sample's walls (K, H, W), the summed
     ``weight`` (H, W) of the cells a scan of ``n_beams`` rays reaching ``range_cells`` sees."""
-    walls = np.ascontiguousarray(walls, dtype=np.bool_)
-    if walls.ndim != 3:
-        raise ValueError(f"walls must be (K, H, W), got {walls.shape}")
-    return _cast(walls, np.ascontiguousarray(weight, np.float64), np.ascontiguousarray(origins_xy_cells, np.float64),
-                 int(n_beams), float(range_cells), np.zeros((0, 0), np.bool_))
+    return cast_visibility(walls, weight, origins_xy_cells, n_beams, range_cells, _START_CELLS)
 
 
 def visible_mask(walls: BoolArray, origin_xy_cells: NDArray[np.floating], n_beams: int,
                  range_cells: float) -> BoolArray:
     """(H, W) cells a scan from one origin ``[col, row]`` sees through ``walls`` (H, W)."""
-    w = np.ascontiguousarray(walls, dtype=np.bool_)[None]
-    mask = np.zeros(w.shape[1:], np.bool_)
-    _cast(w, np.zeros(w.shape[1:]), np.asarray(origin_xy_cells, np.float64).reshape(1, 2), int(n_beams),
-          float(range_cells), mask)
+    mask = np.zeros(np.shape(walls), np.bool_)
+    cast_visibility(np.asarray(walls)[None], None, origin_xy_cells, n_beams, range_cells, _START_CELLS, mask)
     return mask
 
 

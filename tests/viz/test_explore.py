@@ -7,7 +7,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 import rerun as rr
 import torch
 from rerun.chunk import RrdReader
@@ -15,21 +14,12 @@ from rerun.chunk import RrdReader
 from mcnkit.completion.nets import UNet, UNetConfig
 from mcnkit.explore import ExploreConfig, Explorer, FrontierPlanner, GainConfig, McnPlanner
 from mcnkit.sim import PlanRaster
-from mcnkit.types import GridSpec
 from mcnkit.viz.blueprints import recording_blueprint
 from mcnkit.viz.explore import ExploreRecorder, score_colors
 from mcnkit.viz.widgets import ExploreStepper
+from tests.explore.conftest import rooms
 
-
-@pytest.fixture
-def rooms() -> PlanRaster:
-    """Two 3 m × 3 m rooms joined by a 1 m door (0.05 m cells)."""
-    grid = GridSpec(0.05, -1.0, -1.0, 180, 100)
-    free = np.zeros(grid.shape, bool)
-    free[20:80, 20:80] = True
-    free[20:80, 82:142] = True
-    free[40:60, 80:82] = True
-    return PlanRaster("rooms", free, grid, np.zeros((0, 2)))
+__all__ = ["rooms"]
 
 
 def _mcn(rooms: PlanRaster, budget_m: float = 3.0) -> Explorer:
