@@ -190,21 +190,21 @@ def recording_player(path: str | Path, n_steps: int) -> w.VBox:
 
 class ExploreStepper:
     """Steps exploration runs side by side (name -> :class:`~mcnkit.explore.loop.Explorer`, e.g. both planners on
-    the same house and seed), recording each to ``rrd_dir/explore_<name>.rrd`` when given (the last one also to an
+    the same house and seed), recording each to ``<rrd_prefix>_<name>.rrd`` when given (the last one also to an
     embedded viewer with ``viewer=True``)."""
 
-    def __init__(self, explorers: Mapping[str, Explorer], rrd_dir: str | Path | None = None,
+    def __init__(self, explorers: Mapping[str, Explorer], rrd_prefix: str | Path | None = None,
                  viewer: bool = False) -> None:
         from mcnkit.viz.explore import ExploreRecorder
 
         self.explorers = dict(explorers)
         self.decisions: dict[str, Decision | None] = dict.fromkeys(self.explorers)
         self.recorders: dict[str, ExploreRecorder] = {}
-        if rrd_dir is not None:
+        if rrd_prefix is not None:
             names = list(self.explorers)
             for name, ex in self.explorers.items():
                 samples = getattr(getattr(ex.planner, "config", None), "samples", 0)
-                rec = ExploreRecorder(Path(rrd_dir) / f"explore_{name}.rrd", ex, samples=samples,
+                rec = ExploreRecorder(f"{rrd_prefix}_{name}.rrd", ex, samples=samples,
                                       recording_id=f"explore-{name}", notebook_viewer=viewer and name == names[-1])
                 rec.on_frame(ex.records[-1])
                 self.recorders[name] = rec

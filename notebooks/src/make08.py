@@ -30,8 +30,8 @@ SEED = 0                        # start pose and noise: the same for both planne
 BUDGET_M = 10.0 if CI else 120.0
 SAMPLES = 2 if CI else 8        # K completions per planning step
 MODEL = "sampler-explore"       # falls back to unet-explore when the sampler is not installed
-VIEWER = not CI                 # the embedded Rerun viewer needs a browser front end
-RRD_DIR = None if CI else "../recordings/notebook_08\""""),
+RRD = None if CI else "../recordings/notebook_08"  # notebook_08_frontier.rrd, notebook_08_mcn.rrd
+VIEWER = not CI                 # the embedded Rerun viewer needs a browser front end"""),
 code("""import numpy as np
 import torch
 from IPython.display import HTML, display
@@ -59,7 +59,7 @@ gain = GainConfig(samples=SAMPLES)
 mcn = McnPlanner(net, gain, SimConfig().lidar.range_max_m, torch.Generator().manual_seed(seed_streams(SEED)[2]))
 explorers = {"frontier": Explorer(raster, FrontierPlanner(), config, seed=SEED),
              "mcn": Explorer(raster, mcn, config, seed=SEED)}
-stepper = ExploreStepper(explorers, RRD_DIR, viewer=VIEWER)
+stepper = ExploreStepper(explorers, RRD, viewer=VIEWER)
 print(f"{raster.name}: {explorers['mcn'].reachable.sum() * raster.grid.resolution_m ** 2:.0f} m² of reachable free "
       f"space; both robots start at ({explorers['mcn'].truth[0]:.1f}, {explorers['mcn'].truth[1]:.1f}) m")"""),
 md("""## Step the robots

@@ -62,7 +62,7 @@ def test_score_colours_rank_the_scores() -> None:
 
 def test_the_stepper_shows_both_planners_and_why(rooms: PlanRaster, tmp_path: Path) -> None:
     stepper = ExploreStepper({"frontier": Explorer(rooms, FrontierPlanner(), ExploreConfig(budget_m=3.0), seed=1),
-                              "mcn": _mcn(rooms)}, tmp_path)
+                              "mcn": _mcn(rooms)}, tmp_path / "explore")
     stepper.next_plan()
     assert all(d is not None for d in stepper.decisions.values())
     why = stepper.why("mcn")
