@@ -10,11 +10,12 @@ SHARED ?= ../shared/data
 export RERUN_ANALYTICS = 0
 export MCNKIT_SHARED_DATA = $(abspath $(SHARED))
 
-.PHONY: help venv demo test lint typecheck pytest bench clean browser-check notebooks data
+.PHONY: help venv demo test lint typecheck pytest docs docs-check bench clean browser-check notebooks data
 
 help:
 	@echo "make demo   set up .venv and run the demo (simulated apartment: log -> info -> MCN-SLAM -> recordings/demo/demo.rrd)"
-	@echo "make test   set up .venv and run ruff, mypy and pytest (all tests, slow ones included)"
+	@echo "make test   set up .venv and run ruff, mypy, the strict docs build and pytest (all tests, slow ones included)"
+	@echo "make docs   build the documentation site (docs/) and serve it on http://127.0.0.1:$(DOCS_PORT)"
 	@echo "make bench  run every benchmark in benchmarks/ in full (figures printed and written as JSON)"
 	@echo "make notebooks       run every notebook in full mode (copies with outputs in notebooks/executed/)"
 	@echo "make browser-check   JupyterLab + headless Chromium: run notebook 03, save a screenshot"
@@ -47,7 +48,19 @@ typecheck: $(STAMP)
 pytest: $(STAMP)
 	$(PY) -m pytest -q
 
-test: lint typecheck data pytest
+# the documentation site: guide pages + the API reference generated from the docstrings (Sphinx, offline).
+# docs-check rebuilds from scratch (-E) with every warning an error (-W) and mcnkit's references checked (-n).
+DOCS_PORT ?= 8000
+SPHINX    := $(PY) -m sphinx -q -b html docs docs/_build/html
+docs-check: $(STAMP)
+	$(SPHINX) -E -W -n --keep-going
+
+docs: $(STAMP)
+	$(SPHINX) -n
+	@echo "serving docs/_build/html on http://127.0.0.1:$(DOCS_PORT) (Ctrl-C stops)"
+	$(PY) -m http.server --bind 127.0.0.1 --directory docs/_build/html $(DOCS_PORT)
+
+test: lint typecheck docs-check data pytest
 
 # every benchmark in benchmarks/, in full (each prints its figures and writes JSON to benchmarks/results/);
 # the one-off studies in benchmarks/studies/ are run by hand
@@ -61,7 +74,7 @@ notebooks: $(STAMP)
 	$(PY) notebooks/run_notebooks.py
 
 clean:
-	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache docs/_build docs/api/generated
 
 # JupyterLab on 127.0.0.1 in headless Chromium (apt-get install chromium): runs notebook 03, saves a screenshot
 browser-check: $(STAMP)
