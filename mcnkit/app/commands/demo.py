@@ -164,8 +164,20 @@ def _main(args: argparse.Namespace) -> int:
                       duration_s=args.duration_s, samples=args.samples, ranks=args.ranks, model=args.model,
                       signals=SIGNALS, live=live, recording=recording)
     print(f"\nrecording: {result.rrd_path}   map: {result.map_png}   completions: {result.completion_png}")
-    print(f"watch it:  {_rerun_command()} {result.rrd_path}        (or open it in notebooks/01_quickstart.ipynb)")
+    print(f"watch it:  {_rerun_command()} {result.rrd_path}")
+    print(f"           headless: {_rerun_command()} {result.rrd_path} --serve-web --bind 127.0.0.1 (then open the "
+          "printed http address)")
+    print(f"           in Jupyter: {_notebook_hint(result.rrd_path)}")
     return 0
+
+
+def _notebook_hint(rrd: Path) -> str:
+    """Where to watch the recording in Jupyter: the quickstart notebook of a checkout when the command runs from its
+    root, else the one call that shows any recording (an installed wheel ships no notebooks)."""
+    notebook = Path("notebooks/01_quickstart.ipynb")
+    if notebook.is_file():
+        return f"open {notebook}"
+    return f'mcnkit.viz.recording_viewer("{rrd.resolve()}").display()'
 
 
 def _rerun_command() -> str:
