@@ -5,13 +5,13 @@ unmaps at once; smaller requests come from the heap, which only shrinks from its
 128 KiB and, by default, *rises* to the size of every mapped block freed (up to 32 MiB).  A SLAM run frees
 megabyte arrays all the time (tile pools that grow, loop-closure search grids, the tile tables copied at each
 resampling), so after a while those arrays land on the heap between long-lived ones, and the freed space stays
-resident: the same Freiburg campus run peaked anywhere from 462 to 510 MB.
+resident: a long run's peak memory then depends on where its frees happened to land, not on what it holds.
 
 :func:`return_big_frees_to_os` fixes the threshold (which also stops it rising), so every array of
-``threshold_bytes`` or more is mapped and unmapped on its own.  With it fixed at 8 MiB the campus runs peak at
-376–416 MB (``benchmarks/bench_buildings.py``, three seeds) for the same CPU time; a smaller threshold returns
-little more and costs page faults (1 MiB: 377 MB, 18 s more CPU).  The ``mcnkit`` command calls it once at
-start; a notebook or script may call it too.  Elsewhere than glibc (macOS, musl) it does nothing and says so by
+``threshold_bytes`` or more is mapped and unmapped on its own and goes back to the system when freed.  8 MiB is
+below the arrays that matter (tile pools, search grids, tile tables) and above the many small ones, whose every
+allocation would otherwise cost page faults.  The ``mcnkit`` command calls it once at start; a notebook or script
+may call it too (``benchmarks/bench_buildings.py`` reports the runs' peak RSS).  Elsewhere than glibc (macOS, musl) it does nothing and says so by
 returning False.
 """
 
