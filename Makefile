@@ -40,7 +40,7 @@ demo: $(STAMP)
 	$(VENV)/bin/mcnkit demo --overwrite
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check mcnkit tests benchmarks notebooks
+	$(VENV)/bin/ruff check mcnkit tests benchmarks notebooks docs
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
