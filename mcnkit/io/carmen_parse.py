@@ -63,7 +63,8 @@ def lines(path: Path) -> Iterator[str]:
 def is_carmen(path: Path) -> bool:
     """True when ``path`` is a text log whose lines start with CARMEN or DP-SLAM keywords (the first of its first
     200 non-comment lines that is not a header line decides).  Raises :class:`LineTooLong` when a line of such a
-    keyword is longer than any line of a log."""
+    keyword is longer than any line of a log, and :class:`LogError` for a compressed file that decompresses beyond
+    ``MAX_RATIO``."""
     try:
         for n, line in enumerate(lines(path)):
             if n > 200:
@@ -79,7 +80,7 @@ def is_carmen(path: Path) -> bool:
         if err.word in KEYWORDS:  # a log of this format, with a line no log has
             raise
         return False
-    except (OSError, UnicodeDecodeError, IndexError, LogError):
+    except (OSError, UnicodeDecodeError, IndexError):
         return False
     return False
 

@@ -21,7 +21,7 @@ one :class:`~mcnkit.io.errors.LogError` line instead of a process that grows unt
 * ``MAX_RATIO``: a whole-file compressed log (``.mcap.zstd``, ``.log.gz``) decompresses to at most this many times
   its size.  Real logs compress 1–5× (measured: the CARMEN logs of ``../shared`` 3.6–4.9× under gzip, their
   conversions to MCAP and ROS1 bags 1.0–1.4× under zstd); a larger ratio is a file of near-constant bytes, built to
-  exhaust time (a bomb is stopped after ``16 MiB`` of output).
+  exhaust time (a bomb is stopped after a few MiB of output).
 
 A log path must be a regular file (or a folder of regular files): a link to ``/dev/zero``, a FIFO or a device is
 refused (:func:`check_regular`) before anything is read from it.

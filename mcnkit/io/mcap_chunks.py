@@ -29,7 +29,7 @@ from mcnkit.io.limits import MAX_CHUNK_BYTES, check_size
 from mcnkit.io.streams import FileBytes
 
 __all__ = ["MAGIC", "ChunkCrcError", "ChunkIndex", "Summary", "decompress_chunk", "iter_chunk_messages",
-           "read_summary", "take_string"]
+           "read_summary", "take_definition", "take_string"]
 
 MAGIC = b"\x89MCAP0\r\n"
 _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x02, 0x03, 0x04, 0x05, 0x06
@@ -81,18 +81,26 @@ def _take_map(buf: bytes, off: int, fmt: str) -> tuple[dict[int, int], int]:
     return dict(struct.iter_unpack(fmt, buf[off + 4 : off + 4 + n])), off + 4 + n
 
 
-def _summary_record(out: Summary, op: int, body: bytes) -> None:
+def take_definition(schemas: dict[int, tuple[str, str, bytes]], channels: dict[int, tuple[str, str, int]], op: int,
+                    body: bytes) -> None:
+    """Files a Schema (``op`` 0x03: id -> name, encoding, data) or Channel record (0x04: id -> topic, message
+    encoding, schema id); struct.error/ValueError when it is damaged."""
     if op == _OP_SCHEMA:
         (sid,) = struct.unpack_from("<H", body, 0)
         name, o = take_string(body, 2)
         enc, o = take_string(body, o)
         (n,) = struct.unpack_from("<I", body, o)
-        out.schemas[sid] = (name, enc, bytes(body[o + 4 : o + 4 + n]))
+        schemas[sid] = (name, enc, bytes(body[o + 4 : o + 4 + n]))
     elif op == _OP_CHANNEL:
         cid, sid = struct.unpack_from("<HH", body, 0)
         topic, o = take_string(body, 4)
         enc, o = take_string(body, o)
-        out.channels[cid] = (topic, enc, sid)
+        channels[cid] = (topic, enc, sid)
+
+
+def _summary_record(out: Summary, op: int, body: bytes) -> None:
+    if op in (_OP_SCHEMA, _OP_CHANNEL):
+        take_definition(out.schemas, out.channels, op, body)
     elif op == _OP_CHUNK_INDEX:
         start, end, offset, length = struct.unpack_from("<QQQQ", body, 0)
         offsets, _ = _take_map(body, 32, "<HQ")

@@ -18,8 +18,8 @@ from pathlib import Path
 import zstandard
 
 from mcnkit.io.limits import MAX_CHUNK_BYTES, MAX_DEFINITION_BYTES, check_size
-from mcnkit.io.mcap_chunks import MAGIC, ChunkCrcError, decompress_chunk, take_string
-from mcnkit.io.msgindex import Block, BlockCache, MessageIndex
+from mcnkit.io.mcap_chunks import MAGIC, ChunkCrcError, decompress_chunk, take_definition, take_string
+from mcnkit.io.msgindex import Block, MessageIndex, read_indexed
 from mcnkit.io.streams import ByteSource
 
 __all__ = ["McapWalk", "read_walked", "walk_mcap_records"]
@@ -74,7 +74,7 @@ def _walk_records(buf: bytes, out: McapWalk, base: int, block: int) -> str | Non
                 offsets.append(base + body + 22)
                 lengths.append(max(0, length - 22))
             elif op in (_OP_SCHEMA, _OP_CHANNEL):
-                _definition(out, op, buf[body:end])
+                take_definition(out.schemas, out.channels, op, buf[body:end])
             elif op == _OP_CHUNK:
                 raise ValueError("a chunk inside a chunk")
             pos = end
@@ -82,20 +82,6 @@ def _walk_records(buf: bytes, out: McapWalk, base: int, block: int) -> str | Non
         why = str(err)
     out.index.add(times, chans, block, offsets, lengths)
     return why
-
-
-def _definition(out: McapWalk, op: int, body: bytes) -> None:
-    if op == _OP_SCHEMA:
-        (sid,) = struct.unpack_from("<H", body, 0)
-        name, o = take_string(body, 2)
-        enc, o = take_string(body, o)
-        (n,) = struct.unpack_from("<I", body, o)
-        out.schemas[sid] = (name, enc, bytes(body[o + 4 : o + 4 + n]))
-    else:
-        cid, sid = struct.unpack_from("<HH", body, 0)
-        topic, o = take_string(body, 4)
-        enc, o = take_string(body, o)
-        out.channels[cid] = (topic, enc, sid)
 
 
 def _chunk(src: ByteSource, path: Path, out: McapWalk, pos: int, body: bytes, cut: bool, crc: _Crc) -> None:
@@ -188,7 +174,7 @@ def walk_mcap_records(path: Path, src: ByteSource) -> McapWalk:
                 elif cut:
                     raise ValueError(f"record (opcode {op:#x}) is cut off")
                 elif op != _OP_DATA_END:
-                    _definition(out, op, body)
+                    take_definition(out.schemas, out.channels, op, body)
             else:
                 crc.feed(frame)
                 if not _skip(src, pos + 9, length, crc):
@@ -201,18 +187,11 @@ def walk_mcap_records(path: Path, src: ByteSource) -> McapWalk:
 
 def read_walked(path: Path, src: ByteSource, walk: McapWalk, limits: dict[int, tuple[str, int]]
                 ) -> Iterator[tuple[int, int, bytes]]:
-    """``(log_time, channel id, data)`` in log-time order for the channels in ``limits`` (id -> (topic, the
-    largest message it may hold)).  Raises :class:`LogError` for a message over its limit."""
+    """``(log_time, channel id, data)`` in log-time order for the channels in ``limits`` (see
+    :func:`~mcnkit.io.msgindex.read_indexed`)."""
 
     def load(block: int) -> bytes:
         b = walk.blocks[block]
         return decompress_chunk(b.compression, src.read_at(b.offset, b.length), b.size, partial=b.partial)
 
-    cache = BlockCache(load)
-    for t, _seq, channel, block, off, n in walk.index.entries(set(limits)):
-        topic, limit = limits[channel]
-        check_size(path, f"a message on {topic} at {t} ns", n, limit)
-        if block < 0:
-            yield t, channel, src.read_at(off, n)
-        else:
-            yield t, channel, cache.get(block)[off : off + n]
+    return read_indexed(path, src, walk.index, load, limits)

@@ -18,11 +18,15 @@ import tempfile
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
 
-__all__ = ["RUN_ROWS", "Block", "BlockCache", "MessageIndex"]
+from mcnkit.io.limits import check_size
+from mcnkit.io.streams import ByteSource
+
+__all__ = ["RUN_ROWS", "Block", "BlockCache", "MessageIndex", "read_indexed"]
 
 RUN_ROWS = 1 << 20
 _READ_ROWS = 1 << 16
@@ -156,3 +160,18 @@ class BlockCache:
         if len(self._cache) > _CACHE_BLOCKS:
             self._cache.popitem(last=False)
         return data
+
+
+def read_indexed(path: Path, src: ByteSource, index: MessageIndex, load: Callable[[int], bytes],
+                 limits: dict[int, tuple[str, int]]) -> Iterator[tuple[int, int, bytes]]:
+    """``(time ns, connection id, raw)`` in time order for the connections in ``limits`` (id -> (topic, the largest
+    message it may hold)): messages outside chunks read from ``src``, the others from their chunk (``load`` gives a
+    block's decompressed bytes).  Raises :class:`~mcnkit.io.errors.LogError` for a message over its limit."""
+    cache = BlockCache(load)
+    for t, _seq, conn, block, off, n in index.entries(set(limits)):
+        topic, limit = limits[conn]
+        check_size(path, f"a message on {topic} at {t} ns", n, limit)
+        if block < 0:
+            yield t, conn, src.read_at(off, n)
+        else:
+            yield t, conn, cache.get(block)[off : off + n]

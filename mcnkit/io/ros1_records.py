@@ -25,7 +25,7 @@ import lz4.frame
 
 from mcnkit.io.errors import LogError
 from mcnkit.io.limits import MAX_CHUNK_BYTES, MAX_DEFINITION_BYTES, check_size
-from mcnkit.io.msgindex import Block, BlockCache, MessageIndex
+from mcnkit.io.msgindex import Block, MessageIndex, read_indexed
 from mcnkit.io.streams import FileBytes
 
 __all__ = [
@@ -402,18 +402,11 @@ def walk_ros1_records(path: Path, src: FileBytes) -> Ros1Walk:
 
 def read_walked(path: Path, src: FileBytes, walk: Ros1Walk, limits: dict[int, tuple[str, int]]
                 ) -> Iterator[tuple[int, int, bytes]]:
-    """``(time ns, conn id, raw)`` in time order for the connections in ``limits`` (id -> (topic, the largest
-    message it may hold)).  Raises :class:`LogError` for a message over its limit."""
+    """``(time ns, conn id, raw)`` in time order for the connections in ``limits`` (see
+    :func:`~mcnkit.io.msgindex.read_indexed`)."""
 
     def load(block: int) -> bytes:
         b = walk.blocks[block]
         return _decompress(b.compression.encode(), src.read_at(b.offset, b.length), b.size, partial=b.partial)
 
-    cache = BlockCache(load)
-    for t, _seq, conn, block, off, n in walk.index.entries(set(limits)):
-        topic, limit = limits[conn]
-        check_size(path, f"a message on {topic} at {t} ns", n, limit)
-        if block < 0:
-            yield t, conn, src.read_at(off, n)
-        else:
-            yield t, conn, cache.get(block)[off : off + n]
+    return read_indexed(path, src, walk.index, load, limits)

@@ -28,7 +28,8 @@ from mcnkit.io.limits import MAX_RATIO, mib
 __all__ = ["ByteSource", "FileBytes", "StreamBytes", "compression_of", "open_decompressed", "text_lines"]
 
 _MAGICS = {b"\x1f\x8b": "gzip", b"BZh": "bz2", b"\x28\xb5\x2f\xfd": "zstd"}
-_RATIO_FLOOR = 16 << 20  # output bytes before the ratio is judged (small files of one repeated value are harmless)
+_RATIO_FLOOR = 1 << 20  # output bytes before the ratio is judged (a small file of one repeated value is harmless)
+_READ_SIZE = 1 << 14  # compressed bytes read at a time: the ratio is judged on what was consumed, not read ahead
 _SKIP_PIECE = 1 << 20
 _KEEP = 1 << 20  # decompressed bytes kept behind the read position of a stream
 
@@ -90,7 +91,8 @@ def open_decompressed(path: Path, kind: str) -> BinaryIO:
     elif kind == "bz2":
         inner = bz2.BZ2File(counting, mode="rb")  # type: ignore[assignment]
     else:
-        inner = zstandard.ZstdDecompressor().stream_reader(counting, read_across_frames=True)  # type: ignore[arg-type]
+        inner = zstandard.ZstdDecompressor().stream_reader(counting, read_size=_READ_SIZE,  # type: ignore[arg-type]
+                                                           read_across_frames=True)
     return io.BufferedReader(_Guarded(path, inner, counting), buffer_size=1 << 16)
 
 
