@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks import hostile
-from benchmarks.common import ROOT
+from benchmarks.common import ROOT, save_report
 from mcnkit.io import LogContent, LogError, open_log, write_log
 from mcnkit.types import Frame
 
@@ -483,12 +483,7 @@ def main() -> int:
         return 2
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     report = run_mutants(args)
-    md = markdown(report)
-    print(md)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=1) + "\n")
-    args.out.with_suffix(".md").write_text(md)
-    return 0 if report["verdict"]["ok"] else 1
+    return save_report(args.out, report, markdown(report))
 
 
 if __name__ == "__main__":

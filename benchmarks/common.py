@@ -6,12 +6,14 @@ The benchmarks are a package: run them from the repository root as ``python -m b
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
-__all__ = ["BUILDINGS", "RESULTS", "ROOT", "SLAM_ENV", "data_dir", "slam_command"]
+__all__ = ["BUILDINGS", "RESULTS", "ROOT", "SLAM_ENV", "data_dir", "save_report", "slam_command"]
 
 ROOT = Path(__file__).resolve().parents[1]
 """The repository."""
@@ -48,3 +50,13 @@ def slam_command(log: Path, seed: int, out: Path, options: Sequence[str] = ()) -
 
 SLAM_ENV = {**os.environ, "RERUN_ANALYTICS": "0"}
 """The environment benchmarks run ``mcnkit slam`` in (Rerun analytics off)."""
+
+
+def save_report(out: Path, report: dict[str, Any], md: str) -> int:
+    """Prints the markdown table, writes the report as JSON to ``out`` and the table beside it (``.md``); the exit
+    code: 0 when the report's verdict is ok, else 1."""
+    print(md)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(report, indent=1) + "\n")
+    out.with_suffix(".md").write_text(md)
+    return 0 if report["verdict"]["ok"] else 1
