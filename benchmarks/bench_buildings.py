@@ -19,6 +19,11 @@ seed-0 map with the estimate in green and the aligned reference in red) and ``co
     .venv/bin/python -m benchmarks.bench_buildings [--seeds 0 1 2] [--only aces fr079] [--jobs 2]
     .venv/bin/python -m benchmarks.bench_buildings --extra /path/seattle-corrected.log.gz --out /tmp/b
     .venv/bin/python -m benchmarks.bench_buildings --slam-option=--no-slam.motion.noise-from-log --out /tmp/c
+    .venv/bin/python -m benchmarks.bench_buildings --lidar-only
+
+``--lidar-only`` runs every building with its odometry ignored (``--slam.motion.odometry ignore``: every scan's motion
+found from the scans alone), writes the same table and files into ``benchmarks/results/buildings_lidar_only/``, and
+adds a table of its ATEs beside those of the default run (``benchmarks/results/buildings/buildings.json``).
 """
 
 from __future__ import annotations
@@ -40,6 +45,8 @@ import numpy as np
 from benchmarks.common import BUILDINGS, ROOT, SLAM_ENV, data_dir, slam_command
 
 OUT = ROOT / "benchmarks" / "results" / "buildings"
+OUT_LIDAR_ONLY = ROOT / "benchmarks" / "results" / "buildings_lidar_only"
+LIDAR_ONLY = ["--slam.motion.odometry", "ignore"]
 
 # the targets: ATE RMSE (m) and CPU (s) per log; MIT: relations error and CPU; campus: ATE by order, CPU, RSS
 TARGETS = {"ate_m": 0.15, "cpu_s": 90.0, "mit_relations_m": 0.045, "mit_cpu_s": 30.0,
@@ -173,13 +180,40 @@ def _table(runs: list[Run]) -> tuple[str, dict[str, dict[str, object]]]:
     return "\n".join(lines), verdicts
 
 
+def _beside(runs: list[Run]) -> str:
+    """The lidar-only runs' ATEs (relations for MIT CSAIL) beside those of the default run's ``buildings.json``, per
+    building and seed; empty when that file does not exist."""
+    path = OUT / "buildings.json"
+    if not path.exists():
+        return ""
+    default = {(r["building"], r["seed"]): r for r in json.loads(path.read_text())["runs"]}
+    lines = ["| building | with odometry (seeds) | lidar-only (seeds) | CPU s with odometry / lidar-only |",
+             "|---|---|---|---|"]
+    for name in BUILDINGS:
+        rs = [r for r in runs if r.building == name]
+        if not rs:
+            continue
+        key = "relations_m" if name == "mit-csail" else "ate_rmse_m"
+        fmt = lambda v: "–" if v is None else f"{v:.3f}"  # noqa: E731
+        cpu = lambda v: "–" if v is None else f"{v:.0f}"  # noqa: E731
+        odo = [default.get((name, r.seed), {}) for r in rs]
+        lines.append(f"| {name} | {' / '.join(fmt(d.get(key)) for d in odo)} | "
+                     f"{' / '.join(fmt(getattr(r, key)) for r in rs)} | "
+                     f"{' / '.join(cpu(d.get('cpu_s')) for d in odo)} / {' / '.join(cpu(r.cpu_s) for r in rs)} |")
+    return "\n".join(lines)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--only", nargs="+", choices=list(BUILDINGS), help="a subset of the buildings")
     parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     parser.add_argument("--jobs", type=int, default=2, help="runs in parallel (default 2: this machine's cores)")
-    parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--out", type=Path, help=f"results folder (default {OUT.relative_to(ROOT)}, with --lidar-only "
+                                                f"{OUT_LIDAR_ONLY.relative_to(ROOT)})")
+    parser.add_argument("--lidar-only", action="store_true",
+                        help="ignore every log's odometry (--slam.motion.odometry ignore) and set the ATEs beside the "
+                             "default run's")
     parser.add_argument("--extra", type=Path, nargs="+", default=[], metavar="LOG",
                         help="more logs with a reference, scored like the others and named by their file (e.g. the "
                              "other Radish corrected logs of github.com/acschaefer/ple, data/carmen: buildings this "
@@ -188,7 +222,8 @@ def main() -> int:
                         help="a flag passed on to every `mcnkit slam` run, to measure a setting across the buildings "
                              "(repeatable; e.g. --slam-option=--no-slam.motion.noise-from-log; use another --out)")
     args = parser.parse_args()
-    options = [word for flag in args.slam_option for word in flag.split()]
+    options = [word for flag in args.slam_option for word in flag.split()] + (LIDAR_ONLY if args.lidar_only else [])
+    args.out = args.out or (OUT_LIDAR_ONLY if args.lidar_only else OUT)
     data = data_dir(args.data)
     names = list(args.only or ([] if args.extra else BUILDINGS))  # --extra alone: just those
     for log in args.extra:  # an absolute path: data / path is the path itself
@@ -228,13 +263,19 @@ def main() -> int:
             sax.legend(loc="lower right", fontsize=8)
             single.savefig(args.out / f"{name}.png", dpi=110, bbox_inches="tight")
             plt.close(single)
-        sheet.suptitle(f"mcnkit slam, default configuration, seed {seed0}: estimate (green), reference (red)")
+        what = "odometry ignored (lidar-only)" if args.lidar_only else "default configuration"
+        sheet.suptitle(f"mcnkit slam, {what}, seed {seed0}: estimate (green), reference (red)")
         sheet.savefig(args.out / "contact_sheet.png", dpi=90, bbox_inches="tight")
         plt.close(sheet)
     table, verdicts = _table(runs)
     print(table)
+    beside = _beside(runs) if args.lidar_only else ""
+    if beside:
+        print(beside)
     (args.out / "buildings.md").write_text(
-        "# Building benchmark (`benchmarks/bench_buildings.py`)\n\n"
+        f"# Building benchmark (`benchmarks/bench_buildings.py{' --lidar-only' if args.lidar_only else ''}`)\n\n"
+        + ("Every log's odometry ignored (`--slam.motion.odometry ignore`): each scan's motion found from the scans "
+           "alone.\n\n" if args.lidar_only else "") +
         f"Targets: ATE ≤ {TARGETS['ate_m']} m and CPU ≤ {TARGETS['cpu_s']:.0f} s per log; MIT CSAIL relations "
         f"≤ {TARGETS['mit_relations_m']} m, CPU ≤ {TARGETS['mit_cpu_s']:.0f} s; Freiburg campus ATE ≤ "
         f"{TARGETS['campus_ate_m']} m, CPU ≤ {TARGETS['campus_cpu_s']:.0f} s, peak RSS ≤ {TARGETS['campus_rss_mb']:.0f} MB."
@@ -243,9 +284,11 @@ def main() -> int:
         "over the same on the reference poses (`mcnkit.metrics.hit_cells`). Under 1: the scans draw thinner walls "
         "on the estimate than on the reference. `trajectory.tum` is refined against the scans and the reference is not: "
         "`benchmarks/studies/reference_consistency.py` refines both alike for a fair comparison.\n"
+        + (f"\n## Beside the default run (with odometry)\n\n{beside}\n" if beside else "")
     )
     (args.out / "buildings.json").write_text(json.dumps(
-        {"command": "mcnkit slam LOG --particles 30 --resolution 0.05 --seed S --out DIR --no-progress",
+        {"command": " ".join(["mcnkit slam LOG --particles 30 --resolution 0.05 --seed S --out DIR --no-progress",
+                              *options]),
          "seeds": args.seeds, "targets": TARGETS, "verdicts": verdicts, "runs": [asdict(r) for r in runs]},
         indent=2) + "\n")
     return 0

@@ -60,6 +60,8 @@ class RunSummary:
     """The run's last completion (for a figure); not part of :meth:`as_dict`."""
     interrupted: bool = False
     """True when the run stopped before the frames ran out (a signal, an error)."""
+    lidar_only: bool = False
+    """True when no odometry reached the filter (none in the log, or ``--slam.motion.odometry ignore``)."""
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict (without ``last_completion``)."""
@@ -92,6 +94,7 @@ class McnStats:
         s.cpu_s, s.wall_s = outcome.cpu_s, outcome.wall_s
         s.mean_diversity = float(np.mean(self._diversities)) if self._diversities else float("nan")
         s.interrupted = outcome.interrupted
+        s.lidar_only = self.mcn.slam.lidar_only
 
 
 class SlamOutputs:
@@ -132,7 +135,9 @@ class SlamOutputs:
                 "trajectory": main_mode,  # what trajectory.tum holds (see mcnkit.app.commands.slam)
                 "loop_closures": slam.loops.stats.accepted,
                 "loop_corrections": slam.n_loop_corrections,
-                "unknown_motion_scans": slam.n_unknown_motion,  # the log held no odometry for them (Frame.odom_known)
+                "lidar_only": slam.lidar_only,  # no odometry reached the filter (none in the log, or ignored)
+                "unknown_motion_scans": slam.n_unknown_motion,  # no odometry for them (Frame.odom_known, or ignored)
+                "odometry_rejected_scans": slam.n_odometry_rejected,  # odometry the scans contradicted
                 "scans": slam.n_scans,
                 "filter_updates": slam.n_updates,
                 "resamplings": slam.n_resamples,

@@ -34,8 +34,13 @@ def _positive(section: object, *names: str) -> None:
 
 @dataclass(frozen=True)
 class MotionConfig:
-    """The odometry's noise: how far the particles spread between filter updates."""
+    """The odometry: whether the filter uses it, its noise (how far the particles spread between filter updates),
+    and the motion found from the scans alone where it is missing or ignored."""
 
+    odometry: Literal["use", "ignore"] = "use"
+    """``use`` the log's odometry where it holds some; ``ignore`` it: every scan's motion is found from the scans
+    alone (lidar-only), as in a log without odometry, so that any log can be run the way a handheld scanner's
+    would be (``summary.json`` says ``"lidar_only": true``)."""
     srr: float = 0.1
     """Odometry error in translation as a function of translation [srr]."""
     srt: float = 0.2
@@ -65,15 +70,27 @@ class MotionConfig:
     scans instead of the raw odometry's: odometry that slips or lies is corrected at every scan, not only at
     updates."""
     unknown_window_m: float = 2.0
-    """Where the log holds no odometry for a scan's motion (``Frame.odom_known`` False: a gap in the odometry
-    stream), the tracking searches the map over ± this much in x and y around the pose the previous scan's motion
-    predicts (a robot that drove on at the same speed; 2 m covers one that stopped, one that went twice as far, and
-    the 1 m steps of a sparse log)."""
+    """Where no odometry gives a scan's motion (none in the log, a gap or a jump in it: ``Frame.odom_known``
+    False; ``odometry`` ignored; or odometry the scans contradict), the tracking searches the map for the scan
+    around where the motion prior (:class:`mcnkit.slam.scanmotion.MotionPrior`) predicts it, within at most ± this
+    much in x and y of the pose before (2 m covers the 1 m steps of a log that keeps one scan per metre; the window
+    shrinks to twice the fastest motion over one scan the log has shown)."""
     unknown_window_rad: float = math.pi
-    """Heading window (±) of that search where the odometry is missing (π: any turn; the search is exact branch
-    and bound, so only its cost grows)."""
+    """Heading window (±) of that search, at most (π: any turn; the search is exact branch and bound, so only its
+    cost grows; it shrinks like ``unknown_window_m``)."""
+    prior_window: int = 50
+    """Steps over which the motion prior (:class:`mcnkit.slam.scanmotion.MotionPrior`) measures how well constant
+    velocity and constant step predict this log's tracked motion, and how far off they are."""
+    prior_min_sigma_m: float = 0.02
+    """The motion prior's spread in x and y is never below this (a robot that drove steadily may still brake)."""
+    prior_min_sigma_rad: float = math.radians(1.0)
+    """The motion prior's spread in heading is never below this."""
 
     def __post_init__(self) -> None:
+        if self.odometry not in ("use", "ignore"):
+            raise ValueError(f"odometry must be 'use' or 'ignore', got {self.odometry!r}")
+        _positive(self, "unknown_window_m", "unknown_window_rad", "prior_window", "prior_min_sigma_m",
+                  "prior_min_sigma_rad")
         for name in ("srr", "srt", "str_", "stt"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
@@ -342,7 +359,7 @@ class SlamConfig:
     resolution_m: float = 0.05
     """Cell size of the particle maps and of the output map [delta]."""
     motion: MotionConfig = field(default_factory=MotionConfig)
-    """The odometry's noise."""
+    """The odometry (used or ignored) and its noise."""
     matching: MatchingConfig = field(default_factory=MatchingConfig)
     """The scan matcher."""
     updates: UpdatesConfig = field(default_factory=UpdatesConfig)

@@ -166,15 +166,30 @@ def angular_step(points_xy: F64, resolution_m: float, max_step_rad: float = math
 
 
 @_jit
-def _level_score(level: F32, cx: I64, cy: I64, dx: int, dy: int) -> float:
+def _level_score(level: F32, cx: I64, cy: I64, dx: int, dy: int, span: int) -> float:
+    """The bound of the translations ``dx..dx+span-1`` × ``dy..dy+span-1`` on a level pooling ``span`` cells: a
+    point whose block starts left of or below the grid but reaches into it is scored on the grid's first column or
+    row (which pools a superset of the block's cells inside it), so the bound holds at the grid's edges too."""
     h, w = level.shape
     s = 0.0
     for i in range(cx.shape[0]):
         x = cx[i] + dx
         y = cy[i] + dy
+        if x < 0 and x + span > 0:
+            x = 0
+        if y < 0 and y + span > 0:
+            y = 0
         if 0 <= x < w and 0 <= y < h:
             s += level[y, x]
     return s
+
+
+@_jit
+def _off_centre(a: int, a_mid: int, x: int, y: int, span: int) -> float:
+    """How far a block of ``span`` × ``span`` shifts at angle ``a`` lies from the window's centre (angle steps plus
+    cells): among equal scores the nearer one is explored first, so a tie (a corridor's axis) goes to the centre
+    instead of the window's edge.  Scaled to break ties only (far below any score difference)."""
+    return 1e-9 * (abs(a - a_mid) + 0.5 * (abs(2 * x + span - 1) + abs(2 * y + span - 1)))
 
 
 @_jit
@@ -206,9 +221,13 @@ def _branch_and_bound(
                 stack_a[k] = a
                 stack_x[k] = dx
                 stack_y[k] = dy
-                stack_s[k] = _level_score(levels[depth], cx, cy, dx, dy)
+                stack_s[k] = _level_score(levels[depth], cx, cy, dx, dy, top)
                 k += 1
-    order = np.argsort(stack_s[:k])
+    a_mid = (n_angles - 1) // 2
+    keys = np.empty(k)
+    for i in range(k):
+        keys[i] = stack_s[i] - _off_centre(stack_a[i], a_mid, stack_x[i], stack_y[i], top)
+    order = np.argsort(keys)
     stack_l[:k] = stack_l[:k][order]
     stack_a[:k] = stack_a[:k][order]
     stack_x[:k] = stack_x[:k][order]
@@ -216,6 +235,7 @@ def _branch_and_bound(
     stack_s[:k] = stack_s[:k][order]
     best_a, best_x, best_y, best_s = -1, 0, 0, min_total
     child_s = np.empty(4)
+    child_key = np.empty(4)
     child_x = np.empty(4, np.int64)
     child_y = np.empty(4, np.int64)
     while k > 0:
@@ -236,17 +256,18 @@ def _branch_and_bound(
                 y = dy + oy
                 if x > x_hi or y > y_hi:
                     continue
-                s = _level_score(levels[lev - 1], cx, cy, x, y)
+                s = _level_score(levels[lev - 1], cx, cy, x, y, half)
                 if s > best_s:
                     child_x[n_child] = x
                     child_y[n_child] = y
                     child_s[n_child] = s
+                    child_key[n_child] = s - _off_centre(a, a_mid, x, y, half)
                     n_child += 1
         # push worst first so the best child is explored first
         for _ in range(n_child):
             j = 0
             for t in range(1, n_child):
-                if child_s[t] < child_s[j]:
+                if child_key[t] < child_key[j]:
                     j = t
             if k >= stack_l.shape[0]:
                 grow = stack_l.shape[0]
@@ -261,7 +282,7 @@ def _branch_and_bound(
             stack_y[k] = child_y[j]
             stack_s[k] = child_s[j]
             k += 1
-            child_s[j] = np.inf  # taken
+            child_key[j] = np.inf  # taken
     return best_a, best_x, best_y, best_s
 
 

@@ -7,9 +7,12 @@ Per scan (:meth:`FastSlam.step`):
    :mod:`mcnkit.slam.widesearch`), so odometry that slips, lies or points the wrong way by 10° is caught, then
    hill-climbed at full resolution.  The particles move by that tracked motion with gmapping's sampled noise
    (``motion_from_tracking``), scaled to what the log's own odometry shows against the tracking, but never below
-   this step's own disagreement between the two (``motion_noise_from_log``, :class:`mcnkit.slam.motion.NoiseScale`).  Where the log holds no odometry for a
-   scan's motion (``Frame.odom_known`` False) the tracking searches for it wide around the previous scan's motion
-   (:func:`mcnkit.slam.widesearch.unknown_motion_match`) instead of reading "no motion".
+   this step's own disagreement between the two (``motion_noise_from_log``, :class:`mcnkit.slam.motion.NoiseScale`).  Where no odometry
+   gives a scan's motion (none in the log, a gap or a jump in it: ``Frame.odom_known`` False; ``motion.odometry``
+   ignored: lidar-only; or a step whose odometry is unlike what the robot was doing while the scans side with what
+   it was doing: a wheel that spins or slips) the tracking finds it from the scans alone, around the motion prior's
+   prediction (:mod:`mcnkit.slam.scanmotion`, :func:`mcnkit.slam.widesearch.unknown_motion_match`), and the
+   particles spread by what that match leaves open.
 2. **Filter update**, once the robot has travelled ``linear_update_m`` or turned ``angular_update_rad``: every
    particle is scan-matched against its own map (gmapping's hill climbing, or the improved proposal), its
    log-weight gains the match log-likelihood, the weights are flattened (``ogain``), the set is resampled (low
@@ -47,11 +50,12 @@ from mcnkit.slam.correlative import LikelihoodGrid
 from mcnkit.slam.loops import LoopCloser
 from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.motion import MotionNoise, NoiseScale, motion_std, sample_motion
-from mcnkit.slam.proposal import proposal_covariance
+from mcnkit.slam.proposal import match_information, proposal_covariance
 from mcnkit.slam.raycast import ray_cast_counts, ray_cast_strips
 from mcnkit.slam.refine import REFINE_RANGE_M, refine_poses
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
+from mcnkit.slam.scanmotion import MotionGuess, MotionPrior, motion_covariance, sample_increments
 from mcnkit.slam.widesearch import tracking_grid, unknown_motion_match, wide_match
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
@@ -128,7 +132,15 @@ class FastSlam:
         self.n_loop_corrections = 0
         self.n_wide_jumps = 0
         self.n_unknown_motion = 0
-        """Scans whose motion the log did not hold (``Frame.odom_known`` False), found by scan matching alone."""
+        """Scans whose motion no odometry gave (``Frame.odom_known`` False, or ``motion.odometry`` ignored), found
+        by scan matching around the motion prior."""
+        self.n_odometry_rejected = 0
+        """Scans whose odometry the wide search found far off (a wheel slipped): their motion was found like that of
+        a scan without odometry."""
+        self.prior = MotionPrior(config.motion.prior_window,
+                                 np.array([config.motion.unknown_window_m / 3] * 2 + [config.motion.unknown_window_rad / 3]),
+                                 np.array([config.motion.prior_min_sigma_m] * 2 + [config.motion.prior_min_sigma_rad]))
+        """The robot's recent tracked motion: what a scan's motion is searched around where no odometry gives it."""
         self._last_odom = np.zeros(3)
         self._linear_m = 0.0
         self._angular_rad = 0.0
@@ -176,6 +188,20 @@ class FastSlam:
         return max_range, self.config.map_range(self._lidar)
 
     @property
+    def lidar_only(self) -> bool:
+        """True when no odometry reached the filter: ignored (``motion.odometry``), or missing from every scan."""
+        return self.config.motion.odometry == "ignore" or (self.n_scans > 1 and self.n_unknown_motion == self.n_scans - 1)
+
+    def odometry_note(self) -> str | None:
+        """One line on the steps whose motion came from the scans alone where the log has odometry (gaps, jumps,
+        slips), or None when there were none or the run was lidar-only."""
+        if self.lidar_only or not (self.n_unknown_motion or self.n_odometry_rejected):
+            return None
+        return (f"odometry: {self.n_unknown_motion + self.n_odometry_rejected} of {max(self.n_scans - 1, 1)} steps had "
+                f"none the filter could use ({self.n_unknown_motion} missing in the log, {self.n_odometry_rejected} "
+                "contradicted by the scans): their motion was found from the scans alone")
+
+    @property
     def best_index(self) -> int:
         """Particle with the highest log-likelihood summed over its ancestry."""
         return int(np.argmax(self.log_weight_sums))
@@ -208,8 +234,10 @@ class FastSlam:
         cfg = self.config
         if self._lidar is None:
             self._lidar = frame.scan.spec
-        odom = frame.odom.as_array()
         first = self.n_scans == 0
+        known = frame.odom_known and cfg.motion.odometry == "use"
+        # ignored odometry stays frozen where the first scan was (nothing of it reaches the filter)
+        odom = frame.odom.as_array() if cfg.motion.odometry == "use" else (np.zeros(3) if first else self._last_odom)
         beams = self._beams(frame)
         if first:
             self.poses[:] = odom
@@ -217,24 +245,39 @@ class FastSlam:
         else:
             move = relative(self._last_odom, odom)
             residual = None  # this step's odometry against its scan-matched motion (the noise floor)
-            if frame.odom_known:
-                tracked = self._track(beams, odom, move)
+            dt_s = (frame.stamp_ns - self._scan_stamps[-1]) * 1e-9
+            guess = self.prior.predict(dt_s if dt_s > 0 else None)
+            found = self._track(beams, odom, move) if known else None
+            cov = None  # the spread of a motion found from the scans alone
+            if found is not None and self._unlike_prior(move, guess):  # wheels that spin or slip? ask the scans
+                alt, alt_cov = self._track_unknown_motion(beams, odom, guess)
+                scans_say = alt if self._explains_better(alt, found, beams) else found
+                if not self._unlike_prior(relative(self._scan_online[-1], scans_say), guess):  # as the robot went
+                    found, tracked, cov = None, scans_say, alt_cov
+            if found is not None:
+                tracked = found
                 self._last_motion = relative(self._scan_online[-1], tracked)
                 if cfg.motion.noise_from_log and cfg.matching.track_every_scan:
                     residual = self.noise_scale.add(move, self._last_motion, self._noise)
-            else:  # no odometry for this motion: found by scan matching alone, and counted as driven
-                tracked = self._track_unknown_motion(beams, odom)
+            else:  # no odometry for this motion, or one the scans contradict: found from the scans alone
+                self.n_odometry_rejected += int(known)
+                self.n_unknown_motion += int(not known)
+                if cov is None:
+                    tracked, cov = self._track_unknown_motion(beams, odom, guess)
                 self._last_motion = move = relative(self._scan_online[-1], tracked)
-                self.n_unknown_motion += 1
+            self.prior.add(self._last_motion, dt_s)
             self._linear_m += math.hypot(move[0], move[1])
             self._angular_rad += abs(move[2])
-            if cfg.motion.from_tracking and cfg.matching.track_every_scan:  # the scan-matched motion moves the particles
-                before, after = self._scan_online[-1], tracked
+            if cov is not None:  # the particles spread by what the match left undetermined
+                self.poses = sample_increments(self.poses, self._last_motion, cov, self.rng)
             else:
-                before, after = self._last_odom, odom
-            noise = (self.noise_scale.noise(self._noise, residual if cfg.motion.noise_step_floor else None)
-                     if cfg.motion.noise_from_log else self._noise)
-            self.poses = sample_motion(self.poses, before, after, noise, self.rng)
+                if cfg.motion.from_tracking and cfg.matching.track_every_scan:  # the scan-matched motion moves them
+                    before, after = self._scan_online[-1], tracked
+                else:
+                    before, after = self._last_odom, odom
+                noise = (self.noise_scale.noise(self._noise, residual if cfg.motion.noise_step_floor else None)
+                         if cfg.motion.noise_from_log else self._noise)
+                self.poses = sample_motion(self.poses, before, after, noise, self.rng)
         self._last_odom = odom
         updated = first or self._linear_m >= cfg.updates.linear_m or self._angular_rad >= cfg.updates.angular_rad
         resampled = False
@@ -267,8 +310,10 @@ class FastSlam:
         """gmapping's pose at this scan: the best particle's pose at the last update plus the odometry since."""
         return compose(self._history[self.n_updates - 1, self.best_index], relative(self._update_odom[-1], odom))
 
-    def _track(self, beams: tuple[F64, F64, F64], odom: F64, move: F64) -> F64:
-        """The best particle's pose at this scan as known online (see ``SlamConfig.track_every_scan``)."""
+    def _track(self, beams: tuple[F64, F64, F64], odom: F64, move: F64) -> F64 | None:
+        """The best particle's pose at this scan as known online (see ``SlamConfig.track_every_scan``); None when
+        the wide search finds the scan far from where the odometry puts it (the odometry slipped or lied: the
+        step's motion is then found from the scans alone, as where the log holds none)."""
         cfg = self.config
         best = self.best_index
         from_update = self._from_update(odom)
@@ -283,28 +328,54 @@ class FastSlam:
         if cfg.wide.search and self._grid is not None:
             found = wide_match(self._grid, from_last, end_b, cfg, motion_std(move, self._noise),
                                math.hypot(move[0], move[1]), abs(float(move[2])))
+            if found is not None and found[1]:  # far from the odometry's prediction
+                self.n_wide_jumps += 1
+                return None
             if found is not None:  # the scan's best pose on the coarse field: a better start than odometry's
                 from_last = found[0]
-                self.n_wide_jumps += int(found[1])
         starts = np.stack([from_last, from_update])
         matched = match_scans_to_map(self.maps, best, starts, [(end_b, back_b)] * 2, cfg)
         scores, _ = score_poses(self.maps, best, matched, end_b, back_b, cfg)
         return matched[0] if scores[0] > 1.05 * scores[1] else matched[1]  # near-ties go to the drift-free start
 
-    def _track_unknown_motion(self, beams: tuple[F64, F64, F64], odom: F64) -> F64:
-        """The best particle's pose at a scan whose motion the log does not hold: searched wide around where the
-        previous scan's motion predicts it (see ``SlamConfig.unknown_motion_window_m``), then hill-climbed."""
+    def _unlike_prior(self, move: F64, guess: MotionGuess) -> bool:
+        """The odometry's step lies beyond the motion prior's reach (its penalty in
+        :func:`mcnkit.slam.widesearch.unknown_motion_match` at the cap: about 3σ of what the robot has been doing)."""
+        d = (move - guess.mean) / guess.sigma
+        d[2] = float((move[2] - guess.mean[2] + np.pi) % (2 * np.pi) - np.pi) / guess.sigma[2]
+        return 0.5 * float(d @ d) > self.config.updates.proposal_beams * math.log(1.0 / self.config.wide.jump_ratio)
+
+    def _explains_better(self, pose: F64, other: F64, beams: tuple[F64, F64, F64]) -> bool:
+        """``pose`` explains the scan clearly better than ``other`` on the best particle's map (the same margin as
+        between the tracking's two starts: near-ties go to ``other``)."""
+        end_b, back_b, _ = beams
+        scores, _ = score_poses(self.maps, self.best_index, np.stack([pose, other]), end_b, back_b, self.config)
+        return bool(scores[0] > 1.05 * scores[1])
+
+    def _track_unknown_motion(self, beams: tuple[F64, F64, F64], odom: F64, guess: MotionGuess) -> tuple[F64, F64]:
+        """The best particle's pose at a scan whose motion no odometry gives, and the covariance (3, 3; robot frame)
+        of that motion: searched around where the motion prior predicts it (``guess``; see
+        ``motion.unknown_window_m``), then hill-climbed; its spread is the match's uncertainty combined with the
+        prior's (:func:`mcnkit.slam.scanmotion.motion_covariance`)."""
         cfg = self.config
+        prior_cov = np.diag(guess.sigma**2)
         if not cfg.matching.track_every_scan:
-            return self._from_update(odom)
-        velocity = self._last_motion
-        start = compose(self._scan_online[-1], velocity)
+            return self._from_update(odom), prior_cov
+        before = self._scan_online[-1]
+        start = compose(before, guess.mean)
         end_b, back_b, _ = beams
         if self._grid is not None:
-            found = unknown_motion_match(self._grid, start, velocity, end_b, cfg)
+            reach = self.prior.reach(cfg.motion.unknown_window_m, cfg.motion.unknown_window_rad)
+            found = unknown_motion_match(self._grid, before, start, guess.sigma, reach, end_b, cfg)
             if found is not None:
                 start = found
-        return match_scans_to_map(self.maps, self.best_index, start[None, :], [(end_b, back_b)], cfg)[0]
+        tracked = match_scans_to_map(self.maps, self.best_index, start[None, :], [(end_b, back_b)], cfg)[0]
+        if self._grid is None:
+            return tracked, prior_cov
+        info = match_information(self._grid, end_b, tracked, cfg.updates.proposal_beams)
+        # the particles spread by what the match leaves open, never wider than the motion model for that motion
+        spread = np.minimum(guess.sigma, np.maximum(motion_std(relative(before, tracked), self._noise), self.prior.min_sigma))
+        return tracked, motion_covariance(info, float(before[2]), spread)
 
     def _update(self, frame: Frame, first: bool, beams: tuple[F64, F64, F64], tracked: F64) -> tuple[bool, F64 | None]:
         cfg = self.config

@@ -14,8 +14,9 @@ equally well — along a corridor, whose walls fit anywhere along its axis — t
 looks wide at all only when the region the motion model allows explains little of the scan (``wide_max_near_score``):
 a scan that fits where the odometry put it is never moved to a look-alike place farther away.
 
-:func:`unknown_motion_match` does the same where the log holds no odometry for a scan's motion
-(``Frame.odom_known`` False), around the motion of the scan before and over any turn.
+:func:`unknown_motion_match` finds a scan's pose where no odometry gives its motion (``Frame.odom_known`` False,
+or the odometry ignored): the most probable under the match and the motion prior's prediction
+(:mod:`mcnkit.slam.scanmotion`), over any turn.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from mcnkit.geometry import relative
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.correlative import LikelihoodGrid, likelihood_grid, match_scan, thin_points
 from mcnkit.slam.maps import TiledHitMaps
@@ -92,23 +94,53 @@ def wide_match(
     return near.pose, False
 
 
-def unknown_motion_match(grid: LikelihoodGrid, predicted: F64, velocity: F64, points_base: F64,
-                         config: SlamConfig) -> F64 | None:
-    """The scan's best pose when the log holds no odometry for its motion.
+def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigma: F64, reach: tuple[float, float],
+                         points_base: F64, config: SlamConfig) -> F64 | None:
+    """The scan's most probable pose when no odometry gives its motion: the scan's match times the motion prior.
 
-    ``predicted`` (3,) is where the previous scan's motion ``velocity`` (3,) would bring the robot.  First the
-    window a wide search would use after such a motion (:func:`wide_window`) is searched around it; the whole
-    ``unknown_motion_window_m`` × ``unknown_motion_window_rad`` window is searched only when that one explains
-    little of the scan (``wide_max_near_score``), and wins only when it explains the scan clearly better
-    (``wide_jump_ratio``): a robot turning in place with a 180° scanner sees look-alike views half a turn apart,
-    and the likelier motion is the one it was making.  None when the map explains the scan too poorly."""
+    ``before`` (3,) is the robot's pose at the scan before, ``predicted`` (3,) where the motion prior
+    (:class:`mcnkit.slam.scanmotion.MotionPrior`) puts it now and ``sigma`` (3,; its frame) how far off that may
+    be.  A pose scores ``beams · log(score) - min(d² / 2, cap)``:
+    the match's mean likelihood counted as ``updates.proposal_beams`` independent beams (as the improved proposal
+    counts a scan), and the squared Mahalanobis distance ``d²`` from the prediction, whose penalty stops at
+    ``cap = beams · log(1 / wide.jump_ratio)`` (about 3σ): the robot may change what it does at any scan, and a
+    pose beyond the prior's reach wins when it explains the scan ``1 / jump_ratio`` times better, as the wide
+    search lets a pose far from the odometry's prediction win.  The candidates are the best match in windows
+    around the prediction, from its 3σ region halved down to a cell and a degree, and the best anywhere within
+    ``reach`` (± m, ± rad) of the pose before (:meth:`mcnkit.slam.scanmotion.MotionPrior.reach`: twice the log's
+    fastest motion over one scan, within ``motion.unknown_window_m`` × ``motion.unknown_window_rad``), searched
+    only for a pose that could win.  So where the
+    scan cannot tell poses apart (a corridor's axis, a room seen half a turn apart by a 180° scanner) the one
+    nearest the prediction wins.  None when the map explains the scan too poorly."""
     scan = _search_points(points_base, grid.resolution_m, config)
     if scan is None:
         return None
-    near_xy, near_rad = wide_window(config, math.hypot(velocity[0], velocity[1]), abs(float(velocity[2])))
-    best = match_scan(grid, scan, predicted, near_xy, near_rad)
-    if best.score < config.wide.max_near_score:  # that motion explains little of the scan: look everywhere
-        wide = match_scan(grid, scan, predicted, config.motion.unknown_window_m, config.motion.unknown_window_rad,
-                          min_score=best.score / config.wide.jump_ratio)
-        best = wide if wide.score > 0 else best
-    return best.pose if best.score >= config.wide.min_score else None
+    beams = config.updates.proposal_beams
+    res, floor_rad = grid.resolution_m, math.radians(1.0)
+    win_xy, win_rad = reach
+    xy = min(max(3.0 * float(max(sigma[0], sigma[1])), res), config.motion.unknown_window_m)
+    rad = min(max(3.0 * float(sigma[2]), floor_rad), config.motion.unknown_window_rad)
+
+    cap = beams * math.log(1.0 / config.wide.jump_ratio)
+
+    def value(pose: F64, score: float) -> float:
+        d = relative(predicted, pose) / sigma
+        return beams * math.log(score) - min(0.5 * float(d @ d), cap)
+
+    best: tuple[float, F64] | None = None
+    while True:
+        found = match_scan(grid, scan, predicted, xy, rad)
+        if found.score > 0 and (best is None or value(found.pose, found.score) > best[0]):
+            best = (value(found.pose, found.score), found.pose)
+        if xy <= res and rad <= floor_rad:
+            break
+        xy, rad = max(xy / 2, res), max(rad / 2, floor_rad)
+    # a pose of the whole window wins only if it scores above exp(best value / beams) (its distance adds nothing)
+    bar = math.exp(best[0] / beams) if best is not None else 0.0
+    wide = match_scan(grid, scan, before, win_xy, win_rad, min_score=bar)
+    if wide.score > 0 and (best is None or value(wide.pose, wide.score) > best[0]):
+        best = (value(wide.pose, wide.score), wide.pose)
+    if best is None:
+        return None
+    peak = match_scan(grid, scan, best[1], 2 * res, 2 * floor_rad)  # the top of the chosen mode, prior aside
+    return peak.pose if peak.score >= config.wide.min_score else None

@@ -53,6 +53,37 @@ def test_branch_and_bound_finds_the_brute_force_maximum() -> None:
     assert np.hypot(*(found.pose[:2] - truth[:2])) < 0.08 and abs(found.pose[2] - truth[2]) < math.radians(1.5)
 
 
+def test_branch_and_bound_is_exact_where_the_scan_reaches_past_the_maps_lower_left_edge() -> None:
+    # a robot entering new ground sees walls left of and below everything mapped so far: blocks of shifts that start
+    # outside the grid but reach into it must still bound the scores of their shifts inside it
+    mapped = ROOM[(ROOM[:, 0] > 2.0) & (ROOM[:, 1] > 1.0)]
+    grid = likelihood_grid(mapped, 0.1, sigma_m=0.15, margin_m=0.1, depth=5)
+    truth = np.array([3.5, 2.5, 0.0])
+    scan = thin_points(_scan_of(ROOM, truth, reach=8.0), 0.1)
+    step = math.radians(1.0)
+    found = match_scan(grid, scan, truth, 1.5, math.radians(3), angle_step_rad=step)
+    best = -1.0
+    h, w = grid.levels[0].shape
+    for a in truth[2] + step * np.arange(-3, 4):
+        for dx in np.arange(-15, 16) * 0.1:
+            for dy in np.arange(-15, 16) * 0.1:
+                pose = np.array([truth[0] + dx, truth[1] + dy, a])
+                pts = compose(pose, np.c_[scan, np.zeros(len(scan))])[:, :2]
+                cells = np.floor((pts - [grid.origin_x_m, grid.origin_y_m]) / 0.1).astype(int)
+                inside = (cells[:, 0] >= 0) & (cells[:, 0] < w) & (cells[:, 1] >= 0) & (cells[:, 1] < h)
+                best = max(best, float(grid.levels[0][cells[inside, 1], cells[inside, 0]].sum()) / len(scan))
+    assert math.isclose(found.score, best, rel_tol=1e-5)
+
+
+def test_equal_scores_go_to_the_windows_centre() -> None:
+    # along a corridor every shift scores the same: the match stays where it was asked to look
+    grid = likelihood_grid(CORRIDOR, 0.1, sigma_m=0.15, margin_m=1.0)
+    scan = thin_points(_scan_of(CORRIDOR, np.array([0.0, 1.0, 0.0])), 0.1)
+    for x in (-1.3, 0.0, 2.2):
+        found = match_scan(grid, scan, np.array([x, 1.0, 0.0]), 1.0, math.radians(2))
+        assert abs(found.pose[0] - x) < 0.15
+
+
 def test_refinement_goes_below_a_cell() -> None:
     grid = likelihood_grid(ROOM, 0.05, sigma_m=0.1, margin_m=2.0)
     truth = np.array([4.0, 2.5, 0.2])

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -88,7 +89,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     mcn = McnSlam(slam_config, model, stepped, np.random.default_rng(seed),
                   generator=torch.Generator().manual_seed(seed))
     logger = None
-    with SIGNALS.deferred(), open_log(args.log) as log:
+    with SIGNALS.deferred(), open_log(args.log, odometry=slam_config.motion.odometry) as log:
         count = next((t.count for t in getattr(log, "topics", []) if t.name == getattr(log, "scan_topic", None)),
                      None)
         rec_id = f"mcn-{Path(args.log).stem}-{model_name if model_name in MODELS else 'custom'}-{seed}"
@@ -104,8 +105,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         if summary.scans == 0:
             return 0 if outcome.interrupted else fail("run", f"{args.log}: no scans")
+        if not outcome.interrupted and (note := mcn.slam.odometry_note()) is not None:
+            warnings.warn(note, stacklevel=1)
         share = summary.cpu_s_recording / max(summary.cpu_s, 1e-9)
         stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
+        stopped += ", lidar-only (motion from the scans alone)" if mcn.slam.lidar_only else ""
         print(f"{summary.scans} scans{stopped}, {summary.filter_updates} filter updates, {summary.completions} "
               f"completions (R={config.ranks} × K={config.samples}), mean sample diversity "
               f"{summary.mean_diversity:.3f}; CPU {summary.cpu_s:.1f} s ({100 * share:.1f} % recording), wall "

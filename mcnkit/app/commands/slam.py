@@ -22,13 +22,19 @@ Outputs of ``mcnkit slam LOG --out DIR``:
   ``/config``; ``--connect [URL]`` / ``--serve`` stream the same live (see :mod:`mcnkit.app.recording`);
 * ``map.pgm`` + ``map.yaml`` (ROS ``map_server``: occupied 0, free 254, unknown 205), ``map.png``: the update
   scans ray-cast from ``trajectory.tum``'s poses, so map and trajectory agree;
-* ``summary.json``: scans, filter updates, resamplings, cpu_s, wall_s, peak_rss_mb, final Neff, ...
+* ``summary.json``: scans, filter updates, resamplings, cpu_s, wall_s, peak_rss_mb, final Neff, whether the run was
+  lidar-only (``"lidar_only"``: the log has no odometry, or ``--slam.motion.odometry ignore``), ...
+
+A log without odometry, or one whose odometry is ignored, runs lidar-only: every scan's motion is found from the
+scans alone (:mod:`mcnkit.slam.scanmotion`).  Where a log with odometry has gaps, jumps or slips, those steps are
+found the same way, counted in one warning at the end.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -58,6 +64,10 @@ With --rrd every step is also recorded for Rerun; --connect streams it live to a
 with 'rerun'), --serve from a gRPC server of its own on 127.0.0.1 (it prints the address; --recording.web-viewer
 also serves a web viewer), both also beside --rrd.  The recording holds the whole configuration (/config).
 Score a trajectory with 'mcnkit eval'.
+
+A log without odometry (a handheld scanner, a bag of /scan alone) runs lidar-only: every scan's motion is found
+from the scans; --slam.motion.odometry ignore runs any log that way.  Steps whose odometry is missing, jumps or
+slips are found the same way, counted in one warning.
 
 Settings: every SlamConfig field is a --slam.FIELD flag (its sections' fields --slam.SECTION.FIELD), every
 RecordingConfig field a --recording.FIELD flag (below); --config FILE reads them from a TOML file ([slam],
@@ -154,7 +164,7 @@ def run_slam(args: argparse.Namespace) -> int:
     try:
         check_outputs([args.log], [Output(args.out, folder=True), *([Output(rrd)] if rrd is not None else [])],
                       overwrite=getattr(args, "overwrite", False))
-        with SIGNALS.deferred(), open_log(args.log) as reader:
+        with SIGNALS.deferred(), open_log(args.log, odometry=config.motion.odometry) as reader:
             sinks: list[Sink] = [ProgressSink(_scan_count(reader), enabled=not args.no_progress)]
             if rrd is not None or live is not None:
                 from mcnkit.viz import RerunLogger  # rerun only when asked for
@@ -175,9 +185,12 @@ def run_slam(args: argparse.Namespace) -> int:
                 return 0  # stopped before the first scan: main() reports the signal
             return fail("slam", f"{args.log}: no scans")
         summary = outputs.summary
+        if not outcome.interrupted and (note := slam.odometry_note()) is not None:
+            warnings.warn(note, stacklevel=1)
         stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
+        lidar = ", lidar-only (motion from the scans alone)" if slam.lidar_only else ""
         print(
-            f"{slam.n_scans} scans{stopped}, {slam.n_updates} filter updates, {slam.n_resamples} resamplings, "
+            f"{slam.n_scans} scans{stopped}{lidar}, {slam.n_updates} filter updates, {slam.n_resamples} resamplings, "
             f"CPU {summary['cpu_s']:.1f} s, wall {summary['wall_s']:.1f} s, peak RSS {summary['peak_rss_mb']:.0f} MB"
             f" -> {args.out}", flush=True
         )

@@ -118,7 +118,7 @@ def test_every_slam_config_field_has_a_flag_with_help() -> None:
     slam = add_slam_parser(parser.add_subparsers(required=True))
     options = {a.dest: a for a in slam._actions}
     leaves = list(_leaves(SlamConfig))
-    assert len(leaves) == 86
+    assert len(leaves) == 90
     for dest, flag in leaves:
         action = options[dest]
         assert flag in action.option_strings
@@ -132,14 +132,14 @@ def test_every_slam_config_field_has_a_flag_with_help() -> None:
 
 
 def _flat(config: dict[str, object]) -> dict[str, object]:
-    """A sectioned SlamConfig table with the flat names it had before its sections."""
+    """A sectioned SlamConfig table with the flat names it had before its sections (fields added since left out)."""
     from mcnkit.slam.config import FLAT_NAMES
 
     where = {new: old for old, new in FLAT_NAMES.items()}
     out: dict[str, object] = {}
     for key, value in config.items():
         if isinstance(value, dict):
-            out.update({where[f"{key}.{name}"]: v for name, v in value.items()})
+            out.update({where[f"{key}.{name}"]: v for name, v in value.items() if f"{key}.{name}" in where})
         else:
             out[key] = value
     return out
@@ -209,3 +209,32 @@ def test_bad_settings_are_reported_by_the_name_given(tmp_path: Path, capsys: pyt
     bad.write_text("[slam]\nn_particles = 'six'\n")
     assert _run(["slam", str(log), "--config", str(bad), "--out", str(tmp_path / "x"), "--no-progress"]) == 2
     assert "n_particles: expected int" in capsys.readouterr().err
+
+
+def test_a_scan_only_bag_runs_lidar_only_and_any_log_can(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from mcnkit.geometry import compose, relative
+    from mcnkit.io import LogContent, write_log
+    from mcnkit.metrics import read_tum
+    from mcnkit.types import Frame, Pose2D, Scan
+    from tests.slam.test_fastslam import LIDAR, cast, true_path
+
+    rng = np.random.default_rng(0)
+    truth = true_path()[:80]
+    frames = [Frame(10**9 + k * 10**8, Scan(cast(p, rng), LIDAR), Pose2D.from_array(p)) for k, p in enumerate(truth)]
+    bag = write_log(tmp_path / "scan_only", LogContent(frames, odometry=False), "ros2-mcap")
+    out = tmp_path / "out"
+    assert _run(["slam", str(bag), "--particles", "5", "--out", str(out), "--no-progress"]) == 0
+    assert "lidar-only" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["lidar_only"] and summary["unknown_motion_scans"] == len(frames) - 1
+    est = read_tum(out / "trajectory.tum").poses
+    moved = compose(truth[0], relative(est[0], est))  # from the true start: a log without odometry has no frame
+    assert np.hypot(*(moved[:, :2] - truth[:, :2]).T).max() < 0.1
+    clf = tmp_path / "corridor.clf"  # a log with odometry, run with it ignored
+    _write_clf(clf)
+    ignored = tmp_path / "ignored"
+    argv = ["slam", str(clf), "--particles", "4", "--out", str(ignored), "--no-progress"]
+    assert _run([*argv, "--slam.motion.odometry", "ignore"]) == 0
+    summary = json.loads((ignored / "summary.json").read_text())
+    assert summary["lidar_only"] and summary["config"]["motion"]["odometry"] == "ignore"
+    assert summary["unknown_motion_scans"] == 29

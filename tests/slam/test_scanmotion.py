@@ -1,0 +1,152 @@
+"""Motion from the scans alone: the motion prior and its spread, the search that places a scan without odometry,
+and the filter on the test room run with its odometry ignored, missing or slipping."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mcnkit.geometry import compose, relative
+from mcnkit.slam import FastSlam, SlamConfig
+from mcnkit.slam.config import LoopsConfig, MotionConfig
+from mcnkit.slam.correlative import likelihood_grid
+from mcnkit.slam.scanmotion import MotionPrior, motion_covariance, sample_increments
+from mcnkit.slam.widesearch import unknown_motion_match
+from mcnkit.types import Frame, Pose2D, Scan
+from tests.slam.test_fastslam import LIDAR, cast, drifting_odometry, true_path
+
+
+def test_constant_velocity_where_scans_come_at_a_steady_rate() -> None:
+    prior = MotionPrior(window=50, default_sigma=np.ones(3), min_sigma=np.array([0.01, 0.01, 0.01]))
+    for _ in range(40):
+        prior.add(np.array([0.1, 0.0, 0.02]), 0.1)
+    guess = prior.predict(0.15)  # a scan 1.5 times later than usual: 1.5 times the step
+    assert prior.mode == "velocity"
+    np.testing.assert_allclose(guess.mean, [0.15, 0.0, 0.03])
+    np.testing.assert_allclose(guess.sigma, 0.01)  # steady so far: the floor
+    assert prior.predict(None).mean[0] == pytest.approx(0.1)  # no usable time: the step
+
+
+def test_constant_step_where_scans_are_kept_by_distance() -> None:
+    # a sparse log keeps one scan per metre, seconds apart at random: the time between scans predicts nothing
+    rng = np.random.default_rng(0)
+    prior = MotionPrior(window=50, default_sigma=np.ones(3))
+    for _ in range(60):
+        prior.add(np.array([1.0 + rng.normal(0, 0.03), 0.0, rng.normal(0, 0.02)]), float(rng.uniform(1.0, 5.0)))
+    guess = prior.predict(4.0)
+    assert prior.mode == "step"
+    assert guess.mean[0] == pytest.approx(1.0, abs=0.1)
+    assert 0.02 < guess.sigma[0] < 0.1  # measured on the log
+
+
+def test_the_spread_and_the_reach_are_the_logs_own() -> None:
+    default = np.array([0.7, 0.7, 1.0])
+    prior = MotionPrior(window=50, default_sigma=default, min_samples=30)
+    for k in range(29):  # a robot that alternates 1 m steps and 30° turns in place
+        prior.add(np.array([1.0, 0.0, 0.0]) if k % 2 else np.array([0.0, 0.0, math.radians(30)]), 2.0)
+    assert prior.reach(2.0, math.pi) == (2.0, math.pi)  # too few steps yet: the most
+    np.testing.assert_allclose(prior.predict(2.0).sigma, default)
+    prior.add(np.array([1.0, 0.0, 0.0]), 2.0)
+    xy, rad = prior.reach(2.0, math.pi)
+    assert xy == pytest.approx(2.0) and rad == pytest.approx(math.radians(60))  # twice the fastest so far
+    sigma = prior.predict(2.0).sigma
+    assert sigma[0] > 0.5 and sigma[2] > math.radians(15)  # what this robot does from one scan to the next
+
+
+def test_a_matched_motion_is_spread_along_the_corridor_and_pinned_across_it() -> None:
+    # the match pins world y and the heading (a corridor along world x), not x
+    info = np.diag([0.0, 400.0, 4000.0])
+    sigma = np.array([0.5, 0.2, 0.3])
+    along = motion_covariance(info, 0.0, sigma)  # the robot faces down the corridor
+    assert math.sqrt(along[0, 0]) == pytest.approx(0.5, rel=1e-6)
+    assert math.sqrt(along[1, 1]) < 0.05
+    across = motion_covariance(info, math.pi / 2, sigma)  # facing world y: its own y runs along the corridor
+    assert math.sqrt(across[1, 1]) == pytest.approx(0.2, rel=1e-6) and math.sqrt(across[0, 0]) < 0.05
+    draws = sample_increments(np.zeros((4000, 3)), np.array([1.0, 0.0, 0.0]), along, np.random.default_rng(0))
+    assert draws[:, 0].mean() == pytest.approx(1.0, abs=0.03)
+    assert draws[:, 0].std() == pytest.approx(0.5, rel=0.05) and draws[:, 1].std() < 0.05
+
+
+def _corridor() -> np.ndarray:
+    """Hit points of two walls 2 m apart along x, 30 m long: a scan fits anywhere along them."""
+    x = np.arange(-15.0, 15.0, 0.05)
+    return np.r_[np.c_[x, np.full_like(x, 1.0)], np.c_[x, np.full_like(x, -1.0)]]
+
+
+def test_near_ties_go_to_the_prediction() -> None:
+    walls = _corridor()
+    grid = likelihood_grid(walls, 0.1, 0.15, 0.1, depth=5)
+    scan = walls[np.abs(walls[:, 0]) < 6.0] + 0.013  # what the robot at the origin sees
+    cfg = SlamConfig()
+    for x in (-0.8, 0.0, 0.6):  # wherever the prior says the robot went along the axis, it stays there
+        predicted = np.array([x, 0.2, 0.05])  # off across the corridor and in heading too: those the scan pins
+        found = unknown_motion_match(grid, np.zeros(3), predicted, np.array([0.3, 0.3, 0.1]), (2.0, math.pi), scan, cfg)
+        assert found is not None
+        assert found[0] == pytest.approx(x, abs=0.25)
+        assert abs(found[1]) < 0.06 and abs(found[2]) < math.radians(1.5)
+
+
+def test_a_pose_far_from_the_prediction_wins_when_it_explains_the_scan_clearly_better() -> None:
+    # the test room: the robot turned 60° in place where the prior expected it to drive on 1 m
+    rng = np.random.default_rng(0)
+    before = np.array([3.0, 2.0, 0.0])
+    hits = []
+    for yaw in np.radians(np.arange(0, 360, 30)):
+        pose = before + np.array([0.0, 0.0, yaw])
+        r = cast(pose, rng)
+        ok = np.isfinite(r)
+        a = pose[2] + LIDAR.angles_rad[ok]
+        hits.append(np.c_[pose[0] + r[ok] * np.cos(a), pose[1] + r[ok] * np.sin(a)])
+    grid = likelihood_grid(np.concatenate(hits), 0.1, 0.15, 0.1, depth=5)
+    truth = before + np.array([0.0, 0.0, math.radians(60)])
+    r = cast(truth, rng)
+    ok = np.isfinite(r)
+    scan = np.c_[r[ok] * np.cos(LIDAR.angles_rad[ok]), r[ok] * np.sin(LIDAR.angles_rad[ok])]
+    predicted = compose(before, np.array([1.0, 0.0, 0.0]))
+    found = unknown_motion_match(grid, before, predicted, np.array([0.1, 0.05, 0.05]), (2.0, math.pi), scan,
+                                 SlamConfig())
+    assert found is not None
+    assert np.hypot(*(found[:2] - truth[:2])) < 0.1 and abs(found[2] - truth[2]) < math.radians(1.5)
+
+
+def _frames(truth: np.ndarray, odom: np.ndarray, seed: int, dt_ns: int = 10**8) -> list[Frame]:
+    rng = np.random.default_rng(seed)
+    return [Frame(k * dt_ns, Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))
+            for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
+
+
+@pytest.mark.parametrize("every", [1, 8], ids=["10 Hz, 0.1 m steps", "one scan per 0.8 m"])
+def test_the_room_is_mapped_from_its_scans_alone_with_the_odometry_ignored(every: int) -> None:
+    truth = true_path()[::every]
+    frames = _frames(truth, drifting_odometry(truth, np.random.default_rng(7)), 7)
+    slam = FastSlam(SlamConfig(n_particles=10, motion=MotionConfig(odometry="ignore")), np.random.default_rng(0))
+    for f in frames:
+        slam.step(f)
+    assert slam.lidar_only and slam.n_unknown_motion == len(frames) - 1 and slam.odometry_note() is None
+    est = slam.trajectory().poses
+    assert np.abs(est[0]).max() < 1e-9  # the ignored odometry's first pose does not place the map either
+    moved = compose(truth[0], relative(est[0], est))  # the estimate from the true start
+    err = np.hypot(*(moved[:, :2] - truth[:, :2]).T)
+    yaw = np.degrees(np.abs(np.angle(np.exp(1j * (moved[:, 2] - truth[:, 2])))))
+    assert err.max() < 0.2 and yaw.max() < 3.0
+
+
+def test_odometry_that_slips_falls_back_to_the_motion_from_the_scans_and_is_counted() -> None:
+    # the robot drives 5 m east, then its wheels spin for five scans (0.6 m each) while it stands still, then it
+    # drives on
+    truth = [np.array([1.5 + 0.1 * k, 1.5, 0.0]) for k in range(51)]
+    truth += [truth[-1]] * 5 + [np.array([6.5 + 0.1 * k, 1.5, 0.0]) for k in range(1, 21)]
+    odom = [truth[0]]
+    for k in range(1, len(truth)):
+        step = np.array([0.6, 0.0, 0.0]) if 51 <= k < 56 else relative(truth[k - 1], truth[k])
+        odom.append(compose(odom[-1], step))
+    slam = FastSlam(SlamConfig(n_particles=10, loops=LoopsConfig(closure=False)), np.random.default_rng(0))
+    for f in _frames(np.array(truth), np.array(odom), 3):
+        slam.step(f)
+    assert slam.n_odometry_rejected == 5 and not slam.lidar_only
+    note = slam.odometry_note()
+    assert note is not None and f"{slam.n_odometry_rejected} contradicted by the scans" in note
+    est = slam.trajectory().poses
+    assert np.hypot(*(est[-1, :2] - truth[-1][:2])) < 0.1  # the odometry ends 3 m ahead
