@@ -65,7 +65,7 @@ test: lint typecheck docs-check data pytest
 # every benchmark in benchmarks/, in full (each prints its figures and writes JSON to benchmarks/results/);
 # the one-off studies in benchmarks/studies/ are run by hand
 BENCHMARKS := bench_io bench_slam bench_sim_slam bench_completion bench_mcn bench_mcn_weighting bench_sampling \
-              bench_buildings bench_fuzz bench_interrupts
+              bench_buildings bench_fuzz bench_interrupts bench_explore
 bench: $(STAMP)
 	set -e; for b in $(BENCHMARKS); do echo "== benchmarks/$$b.py"; $(PY) -m benchmarks.$$b; done
 

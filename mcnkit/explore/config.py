@@ -43,6 +43,10 @@ class ExploreConfig:
     """A frontier's viewpoint is the reachable cell nearest to it, at most this far from it [m]."""
     goal_tolerance_m: float = 0.3
     """The goal is reached within this distance [m]."""
+    commit_m: float = 1.0
+    """A planner that commits to its goal (the frontier planner; the mcn planner with --gain.commit) keeps it while
+    a frontier viewpoint remains within this distance of it, until it is reached or given up, as Yamauchi's robot
+    goes to its frontier; 0: every planner chooses afresh at every planning step [m]."""
     blacklist_m: float = 0.5
     """Frontier viewpoints within this distance of a goal that was reached without its frontier going away, or that
     the robot could not get to, are dropped for the rest of the run [m]."""
@@ -56,7 +60,7 @@ class ExploreConfig:
 
     def __post_init__(self) -> None:
         if not (self.budget_m > 0 and self.replan_m > 0 and self.plan_resolution_m > 0 and self.segment_m > 0
-                and self.plan_margin_m >= 0 and self.plan_max_cells > 0):
+                and self.plan_margin_m >= 0 and self.plan_max_cells > 0 and self.commit_m >= 0):
             raise ValueError(f"budget, replan distance, planning resolution and segment must be positive: {self}")
         if not 0 < self.stop_coverage <= 1:
             raise ValueError(f"stop_coverage must be in (0, 1], got {self.stop_coverage}")
@@ -93,6 +97,10 @@ class GainConfig:
     centred on the robot instead [m]."""
     beams: int = 180
     """Rays per viewpoint of the visibility cast."""
+    commit: bool = False
+    """Keep the goal until it is reached, as the frontier planner does (ExploreConfig.commit_m); off: choose the best
+    score afresh at every planning step, which measured better on unused training-list houses
+    (benchmarks/results/explore_study.json)."""
 
     def __post_init__(self) -> None:
         if self.samples < 1 or self.beams < 4:

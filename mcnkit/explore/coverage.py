@@ -3,7 +3,7 @@
 *Seen* is what a scan from the true laser pose can see: the free cells that rays (``coverage_rays`` over 360°,
 finer than the lidar's beams so that far cells between two beams are not missed) cross before the first wall,
 up to the lidar's range.  The *reachable free space* is every free cell a scan can see from some place the robot
-fits in and can get to (the simulator's safe region, :func:`mcnkit.sim.safe_region`), sampled on a
+fits in and can get to (the safe region, :func:`mcnkit.sim.safe_region`, with the planner's margin), sampled on a
 ``coverage_lattice_m`` lattice plus the start: space behind a gap too narrow for the robot, or never in sight of
 one, does not count against it.  Both planners are measured by the same numbers, independent of their SLAM maps.
 

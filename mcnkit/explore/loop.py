@@ -4,7 +4,8 @@
 odometry) in a plan at a random safe pose and runs, per frame (``1 / scan_rate_hz`` s):
 
 1. a planning step (:func:`mcnkit.explore.planners.decide`) when there is no path, the goal is reached, or the
-   robot drove ``replan_m`` since the last one; it plans on the best particle's map, from the robot's *estimated*
+   robot drove ``replan_m`` since the last one (which keeps the goal while its frontier is there, and plans a new
+   path to it on the new map); it plans on the best particle's map, from the robot's *estimated*
    pose (the best particle's pose at the last filter update plus the odometry since).  That map is the SLAM's own,
    but for one thing: a beam that returned nothing saw free space out to the sensor's range (the SLAM skips such
    beams; a robot looking down a long corridor would otherwise never know it can go there);
@@ -149,6 +150,8 @@ class Explorer:
     def __post_init__(self) -> None:
         self.rng, slam_rng, self.sampler_seed = seed_streams(self.seed)
         safe, self._clearance = safe_region(self.raster, self.sim)
+        # the reachable space: what the planner's clearance lets the robot get to (its start lies inside)
+        reach_safe = safe_region(self.raster, replace(self.sim, margin_m=self.config.plan_margin_m))[0]
         cells = np.flatnonzero(safe)
         rc = np.array(divmod(int(cells[self.rng.integers(cells.size)]), safe.shape[1]), np.int64)
         xy = self.raster.grid.cell_to_world(rc)
@@ -156,8 +159,8 @@ class Explorer:
         self.spec = self.sim.lidar.spec()
         self._mount = self.spec.base_to_laser.as_array()
         self._bias = draw_odometry_bias(self.sim.odometry, self.rng)
-        self.reachable = reachable_free(self.raster, safe, xy, self.spec.range_max_m, self.config.coverage_rays,
-                                        self.config.coverage_lattice_m)
+        self.reachable = reachable_free(self.raster, reach_safe | safe, xy, self.spec.range_max_m,
+                                        self.config.coverage_rays, self.config.coverage_lattice_m)
         self._n_reachable = max(int(self.reachable.sum()), 1)
         self.seen = np.zeros_like(self.reachable)
         self.slam = FastSlam(self.slam_config, slam_rng)
@@ -238,7 +241,7 @@ class Explorer:
             self.blacklist.append(goal.xy_m.copy())  # a frontier still there after this is one it cannot see
         if not (self._path is None or reached or stuck or self._since_plan_m >= cfg.replan_m):
             return None
-        decision = self._plan()
+        decision = self._plan(None if goal is None or reached or stuck else goal.xy_m)
         self.last_decision = decision
         self.plans.append(PlanStep.of(self.n_frames - 1, decision))
         if decision.choice is None or decision.path_m is None:
@@ -254,7 +257,7 @@ class Explorer:
         self._since_plan_m = 0.0
         return decision
 
-    def _plan(self) -> Decision:
+    def _plan(self, goal_xy_m: F64 | None) -> Decision:
         t0 = time.process_time()
         if self.lineage is None:
             self.lineage, self._no_return_m = planning_lineage(self.slam)
@@ -264,7 +267,7 @@ class Explorer:
         self.lineage.sync(self.slam.update_poses(), self._planning_ranges)
         view = planning_view(self.lineage, self.estimate, self.config.plan_resolution_m, self.config.plan_max_cells)
         black = np.asarray(self.blacklist).reshape(-1, 2)
-        d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black)
+        d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black, goal_xy_m)
         return replace(d, cpu_s=time.process_time() - t0)
 
     def _move(self) -> None:

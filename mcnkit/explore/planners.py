@@ -2,9 +2,10 @@
 
 A planning step (:func:`decide`) pools the best particle's map onto the planning grid (:func:`planning_view`),
 finds the frontier segments and their viewpoints, runs one Dijkstra from the robot (:mod:`mcnkit.explore.paths`),
-lets the planner score the viewpoints and takes the best score (ties: the cheapest to reach), then traces the path.
+lets the planner score the viewpoints and takes the best score (ties: the cheapest to reach) unless the planner
+commits to the goal it is driving to (``ExploreConfig.commit_m``), then traces the path.
 
-* :class:`FrontierPlanner` — the nearest reachable frontier (Yamauchi 1997): score = −path cost.
+* :class:`FrontierPlanner` — the nearest reachable frontier (Yamauchi 1997): score = −path cost; it commits.
 * :class:`McnPlanner` — K completions of the map (:func:`mcnkit.explore.predict.predict`), the information a scan
   from each viewpoint is expected to bring in them (:mod:`mcnkit.explore.gain`), traded against the path cost.
 
@@ -75,17 +76,21 @@ def planning_view(lineage: LineageMap, pose: F64, resolution_m: float, max_cells
 
 
 class Planner(Protocol):
-    """Scores frontier viewpoints: ``(gain (V,), score (V,), prediction or None)``, higher scores first."""
+    """Scores frontier viewpoints: ``(gain (V,), score (V,), prediction or None)``, higher scores first;
+    ``commits``: it keeps its goal until reached (``ExploreConfig.commit_m``)."""
 
     name: str
+    commits: bool
 
     def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]: ...
 
 
 class FrontierPlanner:
-    """The nearest reachable frontier: score = −path cost (no gain)."""
+    """The nearest reachable frontier: score = −path cost (no gain); the robot goes there until it is reached or
+    its frontier is gone (Yamauchi 1997)."""
 
     name = "frontier"
+    commits = True
 
     def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]:
         """Zero gain, score −cost."""
@@ -100,6 +105,7 @@ class McnPlanner:
     def __init__(self, net: CompletionNet, config: GainConfig, range_m: float, generator: torch.Generator) -> None:
         self.net = net
         self.config = config
+        self.commits = config.commit
         self.range_m = float(range_m)
         self.generator = generator
 
@@ -140,6 +146,8 @@ class Decision:
     prediction: Prediction | None = None
     cpu_s: float = 0.0
     """CPU time of the step (map pooling, frontiers, Dijkstra, completions, gains, path) [s]."""
+    kept: bool = False
+    """True when the choice is the goal the robot was already driving to (``ExploreConfig.commit_m``)."""
 
     @property
     def goal_xy_m(self) -> F64 | None:
@@ -148,10 +156,11 @@ class Decision:
 
 
 def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_radius_m: float,
-           blacklist_xy_m: F64) -> Decision:
+           blacklist_xy_m: F64, goal_xy_m: F64 | None = None) -> Decision:
     """One planning step (see the module docstring); paths keep ``robot_radius_m + config.plan_margin_m`` from the
     map's walls, or only the radius when that leaves no frontier within reach (a door the map draws narrower than it
-    is, a robot that drifted close to a wall)."""
+    is, a robot that drifted close to a wall).  With the current ``goal_xy_m`` and a planner that commits, the
+    viewpoint nearest to it is kept when within ``config.commit_m`` (the planner still scores them all)."""
     t0 = time.process_time()
     frontiers = find_frontiers(view.image, view.grid, config)
     for margin in (config.plan_margin_m, 0.0):  # no frontier within reach: squeeze through with no margin
@@ -162,8 +171,14 @@ def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_ra
     gain, score, pred = planner.score(view, points)
     choice = None
     path = None
+    kept = False
     if len(points):
         # best score; among equal scores the cheapest (points are sorted by cost, argmax takes the first)
         choice = int(np.argmax(score))
+        if goal_xy_m is not None and config.commit_m > 0 and planner.commits:
+            d = np.hypot(*(points.xy_m - goal_xy_m).T)
+            if d.min() <= config.commit_m:
+                choice, kept = int(np.argmin(d)), True
         path = field_.path_to(points.cells[choice])
-    return Decision(view.image, frontiers, points, field_, gain, score, choice, path, pred, time.process_time() - t0)
+    return Decision(view.image, frontiers, points, field_, gain, score, choice, path, pred, time.process_time() - t0,
+                    kept)

@@ -153,7 +153,8 @@ class ExploreRecorder:
             self.rec.log("/world/plan/goal", rr.Clear(recursive=False))
             self.rec.log("/world/plan/path", rr.Clear(recursive=False))
         self.rec.log("/metrics/plan_cpu_ms", rr.Scalars(1000.0 * d.cpu_s))
-        what = (f"plan {self._n_plans}: {len(p)} viewpoints; goal ({goal[0]:.1f}, {goal[1]:.1f}) m, gain "
+        what = (f"plan {self._n_plans}: {len(p)} viewpoints; {'kept' if d.kept else 'new'} goal ({goal[0]:.1f}, "
+                f"{goal[1]:.1f}) m, gain "
                 f"{d.gain[d.choice]:.1f} m², path cost {p.cost_m[d.choice]:.1f} m"
                 if goal is not None and d.choice is not None else f"plan {self._n_plans}: no reachable frontier")
         self.rec.log("/log", rr.TextLog(f"{what}; CPU {1000 * d.cpu_s:.0f} ms"))

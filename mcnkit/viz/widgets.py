@@ -270,7 +270,8 @@ class ExploreStepper:
             f"<tr style='font-weight:{'bold' if i == d.choice else 'normal'}'><td>{r + 1}</td>"
             f"<td>({d.points.xy_m[i, 0]:.1f}, {d.points.xy_m[i, 1]:.1f})</td><td>{d.gain[i]:.1f}</td>"
             f"<td>{d.points.cost_m[i]:.1f}</td><td>{d.score[i]:.2f}</td></tr>" for r, i in enumerate(order))
-        return (f"<p><b>{html.escape(name)}</b>: {len(d.points)} frontier viewpoints, the goal is the best score "
+        how = "it keeps the goal it was driving to" if d.kept else "the goal is the best score"
+        return (f"<p><b>{html.escape(name)}</b>: {len(d.points)} frontier viewpoints, {how} "
                 f"(CPU {1000 * d.cpu_s:.0f} ms)</p><table><tr><th>#</th><th>viewpoint [m]</th><th>gain [m²]</th>"
                 f"<th>path cost [m]</th><th>score</th></tr>{rows}</table>")
 

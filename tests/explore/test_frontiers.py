@@ -85,3 +85,17 @@ class _View:
 
     def __init__(self, grid: GridSpec, image: np.ndarray, pose: np.ndarray) -> None:
         self.grid, self.image, self.pose, self.lineage = grid, image, pose, None
+
+
+def test_the_goal_is_kept_while_its_frontier_is_there() -> None:
+    from mcnkit.explore.planners import FrontierPlanner, decide
+
+    image = _half_known()
+    view = _View(GRID, image, np.array([1.05, 0.85, 0.0]))
+    fresh = decide(view, FrontierPlanner(), ExploreConfig(segment_m=2.0), 0.2, np.zeros((0, 2)))
+    assert fresh.choice == 0 and not fresh.kept  # the nearest
+    far = fresh.points.xy_m[1]
+    kept = decide(view, FrontierPlanner(), ExploreConfig(segment_m=2.0), 0.2, np.zeros((0, 2)), far + np.array([0.0, 0.5]))
+    assert kept.kept and kept.choice == 1 and kept.score[1] < kept.score[0]
+    free = decide(view, FrontierPlanner(), ExploreConfig(segment_m=2.0, commit_m=0.0), 0.2, np.zeros((0, 2)), far)
+    assert free.choice == 0 and not free.kept
