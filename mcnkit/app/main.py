@@ -47,7 +47,8 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "explore": ("mcnkit.app.commands.explore", "add_explore_parser",
                 "a simulated robot explores a floor plan on its own (frontier or mcn planner)"),
     "data": ("mcnkit.app.commands.data", "add_data_parser", "install datasets, build training pairs, draw example pairs"),
-    "train": ("mcnkit.app.commands.train", "add_train_parser", "train a map completion network (U-net or pix2pix)"),
+    "train": ("mcnkit.app.commands.train", "add_train_parser",
+              "train a map completion network (U-net, pix2pix or masked sampler)"),
     "experiment": ("mcnkit.app.commands.experiment", "add_experiment_parser",
                    "run one of the paper's experiments (exp1, exp2, exp3)"),
 }

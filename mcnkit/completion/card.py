@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from mcnkit.completion.calibration import score_samples
 from mcnkit.completion.checkpoint import (
     CheckpointError,
     build_models,
@@ -24,6 +25,7 @@ from mcnkit.completion.checkpoint import (
     save_checkpoint,
 )
 from mcnkit.completion.data import load_domain_pairs
+from mcnkit.completion.nets import SamplerConfig
 from mcnkit.completion.registry import default_weights_dir
 from mcnkit.completion.sample import complete, sample_completions
 from mcnkit.completion.scores import Scores, score_maps
@@ -97,22 +99,38 @@ def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path |
             s = score_maps(pred, ps.target, ps.partial, positive)
             rows.append(_line(f"{label}, {positive}", s))
             metrics[f"{label}, {positive}"] = s.as_dict()
-    samp = sample_completions(gen, _subset(splits.test, 100).partial, 8, torch.Generator().manual_seed(0))
+    few = _subset(splits.test, 100)
+    samp = sample_completions(gen, few.partial, 8, torch.Generator().manual_seed(0))
     div = float(np.mean(samp.diversity))
-    info |= {"test_metrics": metrics, "sample_diversity_k8": div, "reproduce": command, "source_run": str(run_dir)}
+    sampled = score_samples(samp.samples, few.partial, few.target)
+    info |= {"test_metrics": metrics, "sample_diversity_k8": div, "sample_scores_k8": sampled.as_dict(),
+             "reproduce": command, "source_run": str(run_dir)}
     last_json = Path(run_dir) / "last.json"
     last_info = json.loads(last_json.read_text())["info"] if last_json.is_file() else info
     total_s = float(last_info["wall_time_s"])
     info |= {"run_wall_time_s": total_s, "history": last_info.get("history", info.get("history", []))}
     save_checkpoint(wdir / name, ck.arch, gen, disc, info)
+    is_sampler = isinstance(ck.generator_config, SamplerConfig)
+    nll = (lambda h: f" {h.get('val_nll', float('nan')):.4f} |") if is_sampler else (lambda h: "")
     hist = "\n".join(
-        f"| {int(h['epoch']) + 1} | {h['train_loss']:.4f} | {h['val_f']:.4f} | {h['val_miou']:.4f} | {h['wall_time_s']:.0f} |"
+        f"| {int(h['epoch']) + 1} | {h['train_loss']:.4f} | {h['val_f']:.4f} | {h['val_miou']:.4f} |{nll(h)} "
+        f"{h['wall_time_s']:.0f} |"
         for h in info.get("history", [])
+    )
+    selection = "the lowest validation cross-entropy" if is_sampler else "the best (F + mIoU) / 2"
+    head = "| epoch | train loss | val F (free) | val mIoU unknown |" + (" val cross-entropy |" if is_sampler else "")
+    head += " wall s |\n|---|---|---|---|" + ("---|" if is_sampler else "") + "---|"
+    arch_line = (
+        "masked sampler `SamplerConfig("
+        + ", ".join(f"{k}={v}" for k, v in ck.generator_config.as_dict().items() if k != "unet")
+        + f")` around the U-net `UNetConfig({', '.join(f'{k}={v}' for k, v in ck.generator_config.unet.as_dict().items())})`"
+        if isinstance(ck.generator_config, SamplerConfig)
+        else f"generator `UNetConfig({', '.join(f'{k}={v}' for k, v in ck.generator_config.as_dict().items())})`"
     )
     size_mb = checkpoint_paths(wdir / name)[0].stat().st_size / 1e6
     card = f"""# {name}: {ck.arch} map completion network trained on {tc["domain"]}
 
-- Architecture: `{ck.arch}`; generator `UNetConfig({", ".join(f"{k}={v}" for k, v in ck.generator_config.as_dict().items())})`,
+- Architecture: `{ck.arch}`; {arch_line},
   spectral normalization on every conv; {sum(p.numel() for p in gen.parameters()):,} generator parameters; file {size_mb:.1f} MB.
 - Data: {tc["domain"]} pairs (m_t, m_T), 64×64; split {info.get("n_train_pairs")} train / {len(splits.val)} val / {len(splits.test)} test
   (`n_train={tc["n_train"]}, n_val={tc["n_val"]}, n_test={tc["n_test"]}`, seed {tc["seed"]}); augmentation: {_augment(tc)}.
@@ -122,7 +140,8 @@ def ship(run_dir: str | Path, name: str, command: str, weights_dir: str | Path |
   time budget {tc["max_minutes"]} min, initialised from: {tc["init_from"] or "scratch"}.
 - Wall time (data loading + training + per-epoch validation, {conditions}): best checkpoint
   reached after {info["wall_time_s"]:.0f} s ({info["wall_time_s"] / 60:.1f} min), whole run {total_s:.0f} s ({total_s / 60:.1f} min){_init_time(tc, float(info["wall_time_s"]))}.
-- Sample diversity (K = 8, dropout on, 100 test maps): {div:.4f} of the cells differ between two samples.{_pair_build(splits.manifest)}
+- Samples (K = 8, 100 test maps, on the cells unknown in m_t): {div:.4f} of the cells differ between two samples;
+  {sampled.summary()}.{_pair_build(splits.manifest)}
 
 ## Reproduce
 
@@ -134,10 +153,9 @@ so under another CPU load the run is close to, not bit-identical with, this one 
 python -m mcnkit.completion.card RUN_DIR {name} --command "<the command above>"
 ```
 
-## Validation per epoch (whole run; the shipped checkpoint is the best (F + mIoU) / 2)
+## Validation per epoch (whole run; the shipped checkpoint is {selection})
 
-| epoch | train loss | val F (free) | val mIoU unknown | wall s |
-|---|---|---|---|---|
+{head}
 {hist}
 
 ## Metrics (deterministic completion; per-map mean ± 95 % CI)

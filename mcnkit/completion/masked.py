@@ -18,7 +18,7 @@ Example:
     >>> from mcnkit.completion.nets import MaskedSampler, SamplerConfig, UNetConfig
     >>> net = MaskedSampler(SamplerConfig(UNetConfig(out_channels=1, base_channels=4, depth=2, dropout=0.0))).eval()
     >>> x = torch.stack([torch.full((1, 16, 16), 0.5), torch.ones(1, 16, 16)], dim=1)   # all unknown
-    >>> draw(net.net, x, k=3, schedule=(0.25, 1.0), generator=torch.Generator().manual_seed(0)).shape
+    >>> draw(net.net, x, k=3, schedule=(0.25, 1.0), generator=torch.Generator().manual_seed(0))[0].shape
     torch.Size([1, 3, 16, 16])
 """
 
@@ -28,6 +28,8 @@ from collections.abc import Callable, Sequence
 
 import torch
 from torch.nn import functional as F
+
+from mcnkit.completion.structure import separating_walls
 
 __all__ = ["draw", "masked_bce", "reveal_for_training", "reveal_share"]
 
@@ -71,10 +73,25 @@ def masked_bce(p_occupied: torch.Tensor, target_occupied: torch.Tensor, cells: t
 
 @torch.no_grad()
 def draw(
-    net: Net, x: torch.Tensor, k: int, schedule: Sequence[float], generator: torch.Generator | None = None
-) -> torch.Tensor:
-    """K sampled maps (B, K, H, W) with values 0 (free) / 1 (occupied) on m_t's unknown cells and m_t's own
-    values elsewhere; ``net`` maps (N, 2, H, W) to p(occupied) (N, 1, H, W); ``x`` (B, 2, H, W) = m_t."""
+    net: Net,
+    x: torch.Tensor,
+    k: int,
+    schedule: Sequence[float],
+    generator: torch.Generator | None = None,
+    late_temperature: float = 1.0,
+    late_from: float = 1.0,
+    settle: Sequence[float] = (),
+    reconnect: int = 0,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """(K sampled maps (B, K, H, W) with 0 (free) / 1 (occupied) on m_t's unknown cells and m_t's own values
+    elsewhere, the first round's p(occupied | m_t) (B, 1, H, W)).
+
+    ``net`` maps (N, 2, H, W) to p(occupied) (N, 1, H, W); ``x`` (B, 2, H, W) = m_t.  Rounds starting once
+    ``late_from`` of the cells are drawn use p sharpened by ``late_temperature``; each share in ``settle`` is one
+    sweep setting that share of the cells to their most likely label given all the others; last, up to
+    ``reconnect`` times, the walls that cut a sample's free space apart are masked and drawn again given
+    everything else (see :class:`~mcnkit.completion.nets.SamplerConfig`).
+    """
     b, _, h, w = x.shape
     first = net(x)  # the first round sees m_t alone: one pass per map serves all K samples
     state = x.unsqueeze(1).expand(b, k, 2, h, w).reshape(b * k, 2, h, w).clone()
@@ -83,10 +100,39 @@ def draw(
     done = 0.0
     for r, share in enumerate(schedule):
         p = first.unsqueeze(1).expand(b, k, 1, h, w).reshape(b * k, 1, h, w) if r == 0 else net(state)
+        if done >= late_from and late_temperature != 1.0:
+            p = _sharpen(p, late_temperature)
         now = unknown & (priority >= done) & (priority < share if share < 1.0 else torch.ones_like(unknown))
         label = (torch.rand(p.shape, generator=generator).to(x.device) < p).to(state.dtype)
-        state[:, :1] = torch.where(now, label, state[:, :1])
-        state[:, 1:2] = torch.where(now, torch.zeros_like(label), state[:, 1:2])
+        _commit(state, now, label)
         done = share
-    return state[:, 0].reshape(b, k, h, w)
+    for share in settle:
+        now = unknown & (torch.rand(unknown.shape, generator=generator).to(x.device) < share)
+        masked = state.clone()
+        _commit(masked, now, torch.full_like(masked[:, :1], 0.5), known=False)
+        _commit(state, now, (net(masked) >= 0.5).to(state.dtype))
+    for _ in range(reconnect):
+        walls = torch.from_numpy(separating_walls(state[:, 0].cpu().numpy(), unknown[:, 0].cpu().numpy()))
+        redo = walls.flatten(1).any(1)
+        if not bool(redo.any()):
+            break
+        cells = walls[redo].unsqueeze(1).to(x.device)
+        sub = state[redo]
+        masked = sub.clone()
+        _commit(masked, cells, torch.full_like(masked[:, :1], 0.5), known=False)
+        label = (torch.rand(cells.shape, generator=generator).to(x.device) < net(masked)).to(state.dtype)
+        _commit(sub, cells, label)
+        state[redo] = sub
+    return state[:, 0].reshape(b, k, h, w), first
 
+
+def _commit(state: torch.Tensor, cells: torch.Tensor, image: torch.Tensor, known: bool = True) -> None:
+    """Writes ``image`` into ``cells`` of the (N, 2, H, W) state, marked known (mask 0) or unknown (mask 1)."""
+    state[:, :1] = torch.where(cells, image, state[:, :1])
+    state[:, 1:2] = torch.where(cells, torch.full_like(image, 0.0 if known else 1.0), state[:, 1:2])
+
+
+def _sharpen(p: torch.Tensor, temperature: float) -> torch.Tensor:
+    """p(occupied) with its log-odds divided by ``temperature``."""
+    q = p.clamp(1e-6, 1.0 - 1e-6)
+    return torch.sigmoid((torch.log(q) - torch.log1p(-q)) / temperature)

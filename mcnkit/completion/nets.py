@@ -29,6 +29,8 @@ from torch import nn
 from torch.nn import functional as F
 from torch.nn.utils.parametrizations import spectral_norm
 
+from mcnkit.completion.train_config import SAMPLER_SCHEDULE
+
 __all__ = [
     "CompletionNet",
     "DiscriminatorConfig",
@@ -187,17 +189,28 @@ def has_spectral_norm(layer: nn.Module) -> bool:
 
 @dataclass(frozen=True)
 class SamplerConfig:
-    """A masked sampler: its U-net (2 input channels (image, mask), 1 output channel p(occupied)) and its schedule.
+    """A masked sampler: its U-net (2 input channels (image, mask), 1 output channel p(occupied)) and how it draws.
 
     ``schedule`` is the share of m_t's unknown cells whose labels are drawn by the end of each round, increasing
     to 1.0: few cells first, while the net still decides the house's extent, most cells last, when the drawn
-    cells around them have pinned walls and rooms down.
+    cells around them have pinned walls and rooms down.  Rounds that start once ``late_from`` of the cells are
+    drawn use p(occupied) sharpened by ``late_temperature`` (< 1): those cells are nearly determined by the
+    drawn ones, and drawing a whole round of them independently would otherwise scatter specks and dot the walls.
+    ``settle`` lists the shares of a few sweeps after the last round, each re-masking that share of the cells and
+    setting them to their most likely label given all the others.  Last, up to ``reconnect`` times, the walls that
+    cut a sample's free space into separate regions are masked and drawn again given everything else: a wall
+    drawn cell by cell in one round loses its door about as often as it keeps it, while the net, seeing the whole
+    wall open, puts the door back.
     """
 
     unet: UNetConfig = UNetConfig(
-        out_channels=1, base_channels=8, max_channels=64, depth=6, dropout=0.0, dropout_levels=0
+        out_channels=1, base_channels=4, max_channels=128, depth=6, dropout=0.0, dropout_levels=0
     )
-    schedule: tuple[float, ...] = (0.01, 0.03, 0.08, 0.18, 0.36, 0.64, 1.0)
+    schedule: tuple[float, ...] = SAMPLER_SCHEDULE
+    late_temperature: float = 0.5
+    late_from: float = 0.3
+    reconnect: int = 2
+    settle: tuple[float, ...] = (0.5, 0.5)
 
     def __post_init__(self) -> None:
         if self.unet.in_channels != 2 or self.unet.out_channels != 1 or self.unet.noise_channels:
@@ -205,15 +218,25 @@ class SamplerConfig:
         s = self.schedule
         if not s or s[-1] != 1.0 or any(b <= a for a, b in itertools.pairwise(s)) or s[0] <= 0.0:
             raise ValueError(f"schedule must increase from above 0 to exactly 1.0, got {s}")
+        if not 0.0 < self.late_temperature <= 1.0 or not 0.0 <= self.late_from <= 1.0:
+            raise ValueError(f"late_temperature must be in (0, 1] and late_from in [0, 1]: {self}")
+        if self.reconnect < 0 or any(not 0.0 < v <= 1.0 for v in self.settle):
+            raise ValueError(f"settle shares must be in (0, 1], got {self.settle}")
 
     def as_dict(self) -> dict[str, Any]:
         """The config as plain JSON-able values."""
-        return {"unet": self.unet.as_dict(), "schedule": list(self.schedule)}
+        return {"unet": self.unet.as_dict(), "schedule": list(self.schedule),
+                "late_temperature": self.late_temperature, "late_from": self.late_from, "reconnect": self.reconnect,
+                "settle": list(self.settle)}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SamplerConfig:
-        """The inverse of :meth:`as_dict`."""
-        return cls(UNetConfig(**d["unet"]), tuple(float(v) for v in d["schedule"]))
+        """The inverse of :meth:`as_dict` (drawing settings left out take their defaults)."""
+        default = cls()
+        return cls(UNetConfig(**d["unet"]), tuple(float(v) for v in d["schedule"]),
+                   float(d.get("late_temperature", default.late_temperature)),
+                   float(d.get("late_from", default.late_from)), int(d.get("reconnect", default.reconnect)),
+                   tuple(float(v) for v in d.get("settle", default.settle)))
 
 
 class MaskedSampler(nn.Module):

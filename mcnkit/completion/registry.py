@@ -5,11 +5,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["DOMAINS", "MODELS", "CheckpointError", "default_weights_dir"]
+__all__ = ["DEFAULT_MODEL", "DOMAINS", "MODELS", "CheckpointError", "default_weights_dir"]
 
-MODELS = {"unet": "unet-houseexpo", "unet-explore": "unet-houseexpo-explore", "pix2pix": "pix2pix-houseexpo",
-          "unet-procedural": "unet-procedural"}
-"""Short names of the shipped weights (``mcnkit/weights/<name>.safetensors``)."""
+MODELS = {"sampler": "sampler-houseexpo", "sampler-explore": "sampler-houseexpo-explore", "unet": "unet-houseexpo",
+          "unet-explore": "unet-houseexpo-explore", "pix2pix": "pix2pix-houseexpo", "unet-procedural": "unet-procedural"}
+"""Short names of the shipped weights (``mcnkit/weights/<name>.safetensors``): the masked samplers, which draw
+whole houses (HouseExpo's one-scan maps; maps part-way through an exploration), and the deterministic nets of the
+paper's experiments."""
+
+DEFAULT_MODEL = "sampler-explore"
+"""The completion network MCN-SLAM uses unless told otherwise (``mcnkit run``, ``mcnkit demo``): the masked sampler
+trained on maps part-way through an exploration, the maps a robot's SLAM holds during a run."""
 
 DOMAINS = ("houseexpo", "houseexpo-explore", "procedural")
 """Training domains of :func:`mcnkit.completion.data.load_domain_pairs`."""

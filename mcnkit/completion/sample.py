@@ -100,7 +100,42 @@ def _fold_bn(conv: nn.Module, bn: nn.BatchNorm2d) -> None:
     conv.bias = nn.Parameter((bias - bn.running_mean) * scale + shift, requires_grad=False)
 
 
-def _freeze(net: UNet) -> UNet:
+_PHASE_TAPS = ((3, 1, None), (None, 2, 0))
+"""For output phase a (row 2m + a) of a ConvTranspose2d(kernel 4, stride 2, padding 1): the kernel index that
+input row m - 1, m, m + 1 meets (None: none)."""
+
+
+class SubPixelUp(nn.Module):
+    """A ConvTranspose2d(kernel 4, stride 2, padding 1) rewritten as a 3 × 3 convolution to 4 × the channels and
+    a pixel shuffle: the same function up to float rounding, which CPU convolution libraries run faster than a
+    transposed convolution."""
+
+    def __init__(self, deconv: nn.ConvTranspose2d) -> None:
+        super().__init__()
+        if (deconv.kernel_size, deconv.stride, deconv.padding, deconv.output_padding) != ((4, 4), (2, 2), (1, 1), (0, 0)):
+            raise ValueError(f"SubPixelUp rewrites kernel 4, stride 2, padding 1 only, got {deconv}")
+        w = deconv.weight.detach()  # (C_in, C_out, 4, 4)
+        c_in, c_out = w.shape[:2]
+        sub = w.new_zeros(c_out, 2, 2, c_in, 3, 3)
+        for a, rows in enumerate(_PHASE_TAPS):
+            for b, cols in enumerate(_PHASE_TAPS):
+                for t, kt in enumerate(rows):
+                    for u, ku in enumerate(cols):
+                        if kt is not None and ku is not None:
+                            sub[:, a, b, :, t, u] = w[:, :, kt, ku].T
+        self.conv = nn.Conv2d(c_in, 4 * c_out, 3, padding=1).to(device=w.device, dtype=w.dtype)
+        self.conv.weight = nn.Parameter(sub.reshape(4 * c_out, c_in, 3, 3), requires_grad=False)
+        bias = deconv.bias.detach() if deconv.bias is not None else w.new_zeros(c_out)
+        self.conv.bias = nn.Parameter(bias.repeat_interleave(4), requires_grad=False)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return nn.functional.pixel_shuffle(self.conv(x), 2)
+
+
+def _freeze(net: UNet, subpixel: bool = False) -> UNet:
+    """The inference copy of ``net``; ``subpixel`` also rewrites its upsampling layers as :class:`SubPixelUp` (for
+    the masked sampler, which runs its net once per round; the deterministic nets keep theirs, so their outputs
+    stay bit for bit those their experiments report)."""
     # A fresh net (its own parametrized classes: never remove_parametrizations on a deepcopy, whose classes are
     # shared with the original) with the parametrizations removed, then the evaluated weights copied in.
     was_training = net.training
@@ -128,6 +163,10 @@ def _freeze(net: UNet) -> UNet:
                 if isinstance(norm, nn.BatchNorm2d):
                     _fold_bn(conv, norm)
                     norms[i] = nn.Identity()
+        if subpixel:
+            for i, deconv in enumerate(frozen.up):
+                if isinstance(deconv, nn.ConvTranspose2d):
+                    frozen.up[i] = SubPixelUp(deconv)
     # NHWC: oneDNN runs these thin layers faster on it.
     frozen.to(memory_format=torch.channels_last)  # type: ignore[call-overload]  # (missing from torch's stubs)
     net.train(was_training)
@@ -148,7 +187,7 @@ def inference_net(net: CompletionNet) -> CompletionNet:
     frozen: CompletionNet
     if isinstance(net, MaskedSampler):
         frozen = MaskedSampler(net.config).eval()
-        frozen.net = _freeze(net.net)
+        frozen.net = _freeze(net.net, subpixel=True)
     else:
         frozen = _freeze(net)
     _FROZEN[net] = (key, frozen)
@@ -259,12 +298,13 @@ def sample_completions(
     x = _as_input(partial, torch.device(device))
     b, c, h, w = x.shape
     if isinstance(fast, MaskedSampler):
-        inner = fast.net
-        drawn = draw(inner, x, k, fast.config.schedule, generator)  # (B, K, H, W): 0/1 where m_t is unknown
-        samples = np.where(drawn.cpu().numpy() >= 0.5, OCCUPIED, FREE).astype(np.float32)
+        cfg = net.config if isinstance(net, MaskedSampler) else fast.config  # the drawing settings of the net itself
+        drawn, first = draw(fast.net, x, k, cfg.schedule, generator, cfg.late_temperature, cfg.late_from, cfg.settle,
+                            cfg.reconnect)
+        samples = np.where(drawn.cpu().numpy() >= 0.5, OCCUPIED, FREE).astype(np.float32)  # (B, K, H, W)
         known = (x[:, 1] < 0.5).cpu().numpy()[:, None]
         samples = np.where(known, x[:, None, 0].cpu().numpy(), samples).astype(np.float32)
-        mean_out = occupancy_output(inner(x), x).cpu().numpy()
+        mean_out = occupancy_output(first, x).cpu().numpy()
     else:
         xx = x.unsqueeze(1).expand(b, k, c, h, w).reshape(b * k, c, h, w)
         out = fast(xx, sample=True, generator=generator).reshape(b, k, 2, h, w).cpu().numpy()

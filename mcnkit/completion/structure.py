@@ -20,7 +20,7 @@ from scipy import ndimage
 
 from mcnkit.types import FREE
 
-__all__ = ["free_regions", "roughness"]
+__all__ = ["free_regions", "roughness", "separating_walls"]
 
 _FOUR = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], bool)
 
@@ -47,3 +47,29 @@ def roughness(maps: NDArray[np.floating]) -> NDArray[np.float64]:
     n = free.sum(axis=(-2, -1)).astype(np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n > 0, edges / np.sqrt(n), np.nan)
+
+
+def separating_walls(maps: NDArray[np.floating], editable: NDArray[np.bool_], min_cells: int = 4) -> NDArray[np.bool_]:
+    """Per map of ``(N, H, W)`` ternary maps, the ``editable`` occupied cells that wall a free region off from the
+    largest one: within one cell of a smaller region (of at least ``min_cells``) and two cells of another region.
+
+    Where a completion's free space falls apart, these are the cells a door could open; a map whose free space
+    is one region has none.
+    """
+    m = np.asarray(maps)
+    out = np.zeros(m.shape, bool)
+    ring = np.ones((3, 3), bool)
+    for i, one in enumerate(m):
+        labels, n = ndimage.label(one == FREE, structure=_FOUR)
+        sizes = np.bincount(labels.ravel(), minlength=n + 1)
+        sizes[0] = 0
+        regions = np.flatnonzero(sizes >= min_cells)
+        if len(regions) < 2:
+            continue
+        largest = regions[np.argmax(sizes[regions])]
+        cut_off = np.isin(labels, regions[regions != largest])
+        others = (labels > 0) & ~cut_off
+        near_cut = ndimage.binary_dilation(cut_off, structure=ring)
+        near_others = ndimage.binary_dilation(others, structure=ring, iterations=2)
+        out[i] = (one != FREE) & editable[i] & near_cut & near_others
+    return out

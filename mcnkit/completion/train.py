@@ -49,59 +49,11 @@ from mcnkit.completion.nets import (
 )
 from mcnkit.completion.sample import complete
 from mcnkit.completion.scores import score_maps
+from mcnkit.completion.train_config import TrainConfig
 from mcnkit.datasets import PairSplits
 from mcnkit.threads import torch_threads
 
 __all__ = ["TrainConfig", "TrainResult", "ema_update", "select_device", "train", "weighted_l2"]
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Everything a training run depends on (written into every checkpoint)."""
-
-    model: str = "unet"
-    """unet: the paper's U-net (L2); pix2pix: the same with a patch discriminator; sampler: a masked sampler that
-    draws whole maps round by round (binary cross-entropy on partly revealed maps)."""
-    domain: str = "houseexpo"
-    out_dir: str = "runs/unet"
-    n_train: int = 5000
-    n_val: int = 200
-    n_test: int = 1000
-    epochs: int = 10
-    batch_size: int = 32
-    lr: float = 2e-3
-    lr_discriminator: float = 2e-4
-    beta1: float = 0.5
-    seed: int = 0
-    unknown_weight: float = 2.0
-    recon_weight: float = 100.0
-    gan_weight: float = 1.0
-    augment: bool = True
-    augment_transpose: bool = True
-    base_channels: int = 16
-    max_channels: int = 128
-    depth: int = 4
-    dropout: float = 0.2
-    dropout_levels: int = 2
-    free_weight: float = 1.0
-    ema_decay: float = 0.0
-    max_minutes: float | None = None
-    max_steps: int | None = None
-    init_from: str | None = None
-    resume: bool = False
-    device: str = "auto"
-    threads: int = 2
-    progress: bool = True
-    houseexpo: str | None = None
-    cache_dir: str | None = None
-    schedule: tuple[float, ...] = SamplerConfig.schedule
-    """sampler: the share of the unknown cells drawn by the end of each round (increasing to 1.0)."""
-
-    def __post_init__(self) -> None:
-        if self.model not in ("unet", "pix2pix", "sampler"):
-            raise ValueError(f"model must be unet, pix2pix or sampler, got {self.model!r}")
-        if self.epochs < 1 or self.batch_size < 1 or self.n_train < 1:
-            raise ValueError("epochs, batch size and n_train must be positive")
 
 
 @dataclass(frozen=True)

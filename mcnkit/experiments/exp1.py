@@ -8,7 +8,8 @@ pairs; the first 100 are the paper's protocol) and the procedural test set.  Net
 deterministic completion (dropout off); the figure shows K samples with dropout on and their uncertainty.
 
 Outputs in ``out_dir``: ``exp1.csv`` (one row per method × train domain × test domain × positive class),
-``exp1.md`` (tables, the paper's numbers for comparison, sample diversity) and ``exp1_examples.png``.
+``exp1_samples.csv`` (K = 8 samples per test map, scored), ``exp1_sampler.csv`` (the sampler table: are the samples
+whole houses), ``exp1.md`` (tables, the paper's numbers for comparison, sample diversity) and ``exp1_examples.png``.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import dataclasses
 import os
 import time
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 import torch
@@ -34,7 +36,7 @@ from mcnkit.datasets import PairSet, procedural_pairs
 from mcnkit.experiments.common import fill_unknown
 from mcnkit.experiments.config import Exp1Config
 from mcnkit.experiments.exp1_report import example_figure, markdown
-from mcnkit.experiments.rows import EXP1_COLUMNS, Exp1Row, Exp1SampleRow
+from mcnkit.experiments.rows import EXP1_COLUMNS, Exp1Row, Exp1SampleRow, Exp1SamplerRow
 from mcnkit.experiments.tables import write_rows
 from mcnkit.threads import torch_threads
 from mcnkit.types import FREE, OCCUPIED
@@ -45,9 +47,11 @@ SHIPPED = (
     ("(A) pix2pix", "pix2pix-houseexpo", "houseexpo"),
     ("(B) U-net", "unet-houseexpo", "houseexpo"),
     ("(B) U-net", "unet-procedural", "procedural"),
+    ("(S) sampler", "sampler-houseexpo", "houseexpo"),
 )
 """(row label, checkpoint name, train domain) of the shipped networks."""
-FIGURE_NETS = {("(A) pix2pix", "houseexpo"): "pix2pix", ("(B) U-net", "houseexpo"): "U-net"}
+FIGURE_NETS = {("(A) pix2pix", "houseexpo"): "pix2pix", ("(B) U-net", "houseexpo"): "U-net",
+               ("(S) sampler", "houseexpo"): "sampler"}
 """The networks of the example figure (row label, train domain) and their column titles."""
 
 
@@ -67,17 +71,26 @@ def _example_samples(test: PairSet, nets: dict[str, CompletionNet], k: int, n: i
 
 SAMPLE_K = 8
 """Samples per test map for the sampled table."""
+SAMPLER_K = 32
+"""Samples per test map behind the sampler table's frequencies (ECE, majority); its other figures take the first
+:data:`SAMPLE_K`."""
 
 
-def _sample_row(label: str, train_domain: str, test_domain: str, net: CompletionNet, test: PairSet, k: int, seed: int
-                ) -> Exp1SampleRow:
-    """``net``'s ``k`` samples of every test map (seeded, in batches of 100), scored."""
+R = TypeVar("R", Exp1SampleRow, Exp1SamplerRow)
+
+
+def _sample_row(
+    row: type[R], label: str, train_domain: str, test_domain: str, net: CompletionNet, test: PairSet, k: int,
+    seed: int, first: int | None = None,
+) -> R:
+    """``net``'s ``k`` samples of every test map (seeded, in batches of 100), scored (``first``: see
+    :func:`~mcnkit.completion.calibration.score_samples`) into a row of ``row``."""
     generator = torch.Generator().manual_seed(seed)
     samples = np.concatenate([sample_completions(net, test.partial[i : i + 100], k, generator).samples
                               for i in range(0, len(test), 100)])
-    scores = score_samples(samples, test.partial, test.target)
-    figures = {f.name: getattr(scores, f.name) for f in dataclasses.fields(Exp1SampleRow) if hasattr(scores, f.name)}
-    return Exp1SampleRow(label, train_domain, test_domain, **figures)
+    scores = score_samples(samples, test.partial, test.target, first=first)
+    figures = {f.name: getattr(scores, f.name) for f in dataclasses.fields(row) if hasattr(scores, f.name)}
+    return row(label, train_domain, test_domain, **figures)
 
 
 def run_exp1(cfg: Exp1Config) -> str:
@@ -122,9 +135,12 @@ def _run_exp1(cfg: Exp1Config) -> str:
         rows += _rows("unknown filled all-free", "-", test_domain, fill_unknown(test.partial, FREE), test)
         rows += _rows("unknown filled all-occupied", "-", test_domain, fill_unknown(test.partial, OCCUPIED), test)
     write_rows(out / "exp1.csv", rows, Exp1Row, EXP1_COLUMNS)
-    sampled = [_sample_row(label, train_domain, "houseexpo", net, he_test, SAMPLE_K, cfg.seed)
+    sampled = [_sample_row(Exp1SampleRow, label, train_domain, "houseexpo", net, he_test, SAMPLE_K, cfg.seed)
                for (label, train_domain), net in nets.items()]
     write_rows(out / "exp1_samples.csv", sampled, Exp1SampleRow)
+    houses = [_sample_row(Exp1SamplerRow, label, train_domain, "houseexpo", net, he_test, SAMPLER_K, cfg.seed,
+                          first=SAMPLE_K) for (label, train_domain), net in nets.items()]
+    write_rows(out / "exp1_sampler.csv", houses, Exp1SamplerRow)
     fig_nets = {title: nets[key] for key, title in FIGURE_NETS.items() if key in nets}
     diversity: dict[str, float] = {}
     if fig_nets:
@@ -132,6 +148,6 @@ def _run_exp1(cfg: Exp1Config) -> str:
         example_figure(out / "exp1_examples.png", he_test, idx, samples)
         diversity = {name: float(s.diversity.mean()) for name, s in samples.items()}
     notes.append(f"wall time {time.perf_counter() - t0:.0f} s; figure: exp1_examples.png ({os.fspath(out)})")
-    md = markdown(rows, diversity, cfg.n_samples, notes, sampled)
+    md = markdown(rows, diversity, cfg.n_samples, notes, sampled, houses)
     (out / "exp1.md").write_text(md)
     return md

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from mcnkit.completion.sample import SampleSet
 from mcnkit.datasets import PairSet
 from mcnkit.experiments import paper
-from mcnkit.experiments.rows import Exp1Row, Exp1SampleRow
+from mcnkit.experiments.rows import Exp1Row, Exp1SampleRow, Exp1SamplerRow
 
 __all__ = ["example_figure", "markdown"]
 
@@ -23,9 +23,10 @@ def _row(r: Exp1Row) -> str:
 
 
 def markdown(rows: list[Exp1Row], diversity: dict[str, float], n_samples: int, notes: list[str],
-             sampled: list[Exp1SampleRow] | None = None) -> str:
+             sampled: list[Exp1SampleRow] | None = None, houses: list[Exp1SamplerRow] | None = None) -> str:
     """``exp1.md``: per positive class the table of ``rows``, the paper's table, the sampled table (best-of-K,
-    calibration), the sample diversity (``n_samples`` samples per example) and the notes."""
+    calibration), the sampler table (are the samples whole houses), the sample diversity (``n_samples`` samples
+    per example) and the notes."""
     lines = ["# Experiment 1: map completion (HouseExpo, one Pseudo-SLAM scan) and cross-domain", ""]
     for positive in ("free", "occupied"):
         lines += [
@@ -47,6 +48,19 @@ def markdown(rows: list[Exp1Row], diversity: dict[str, float], n_samples: int, n
                   f"{r.spread_over_error:.2f} | {r.ece:.3f} | {r.best_of_k_ratio:.2f} | {r.f_single:.3f} | "
                   f"{r.f_majority:.3f} | {r.f_best_of_k:.3f} |" for r in sampled]
         lines.append("")
+    if houses:
+        h = houses[0]
+        lines += [f"## Sampler: are the samples whole houses? (ECE and majority over {h.k_frequencies} samples per "
+                  f"test map, the rest over the first {h.k}; cells unknown in m_t)", "",
+                  "| method | train | test | n | spread / error | ECE | best-of-8 / single error | F best of 8 | "
+                  "F majority | known cells kept | one free region | roughness / truth's |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"| {r.method} | {r.train_domain} | {r.test_domain} | {r.n_maps} | {r.spread_over_error:.2f} | "
+                  f"{r.ece:.3f} | {r.best_of_k_ratio:.2f} | {r.f_best_of_k:.3f} | {r.f_majority:.3f} | "
+                  f"{r.known_kept:.4f} | {r.one_region:.2f} | {r.roughness_ratio:.2f} |" for r in houses]
+        lines += ["", "One free region: the share of samples whose free space is one 4-connected region (specks "
+                  "under 4 cells ignored); roughness: free/non-free cell edges per √(free cells), over the true "
+                  "maps' (1: as rough as real houses; below: blobs without interior walls; above: noise).", ""]
     if diversity:
         lines += [f"## Sample diversity ({n_samples} samples, dropout on; share of cells two samples differ on)", ""]
         lines += [f"- {k}: {v:.4f}" for k, v in diversity.items()] + [""]

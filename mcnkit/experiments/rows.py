@@ -80,6 +80,28 @@ class Exp1SampleRow:
 
 
 @dataclass(frozen=True)
+class Exp1SamplerRow:
+    """Experiment 1, the sampler table: whether one network's samples are whole, plausible houses; ECE and the
+    majority over ``k_frequencies`` samples per test map, the other figures over the first ``k``
+    (:func:`mcnkit.completion.calibration.score_samples` with ``first``)."""
+
+    method: str
+    train_domain: str
+    test_domain: str
+    n_maps: int
+    k: int
+    k_frequencies: int
+    spread_over_error: float
+    ece: float
+    best_of_k_ratio: float
+    f_best_of_k: float
+    f_majority: float
+    known_kept: float
+    one_region: float
+    roughness_ratio: float
+
+
+@dataclass(frozen=True)
 class Exp2Row:
     """Experiment 2: one method and variant at one iteration, one positive class, over all houses."""
 

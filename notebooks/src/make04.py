@@ -20,7 +20,8 @@ In this notebook you will
 2. look at the paper's encodings: a ternary image and an unknown mask, the two channels of the network;
 3. train a small U-net for a few minutes (`mcnkit.completion.train`) and plot its loss and validation scores;
 4. draw K samples per map with `sample_completions` and look at their uncertainty;
-5. load the shipped network `unet-houseexpo` and compare it with yours on the same test maps.
+5. load the shipped network `unet-houseexpo` and compare it with yours on the same test maps;
+6. draw K whole houses per map with the shipped masked sampler, and check its calibration.
 
 Everything runs on the CPU. With `MCNKIT_CI=1` the notebook is small (a tiny net, a few dozen pairs, seconds)."""),
 code("""# Parameters: CI runs this notebook small (MCNKIT_CI=1); change them freely.
@@ -51,6 +52,8 @@ import torch
 from IPython.display import Markdown, display
 
 from mcnkit.completion import complete, load_generator, sample_completions, score_maps
+from mcnkit.completion.calibration import score_samples
+from mcnkit.mcn import load_model
 from mcnkit.completion.data import load_domain_pairs
 from mcnkit.completion.registry import default_weights_dir
 from mcnkit.completion.train import TrainConfig, train
@@ -247,6 +250,61 @@ if same:  # full mode: the first 100 test maps are the card's "paper protocol" s
     print(f"card '{same[0]}': F {card[same[0]]['f_measure']:.4f}, mIoU {card[same[0]]['miou_unknown']:.4f}; "
           f"measured here: F {s.f_measure:.4f}, mIoU {s.miou_unknown:.4f}")"""),
 code("""sample_figure(shipped, "shipped unet-houseexpo")"""),
+md("""## The masked sampler: K different houses
+Dropout on a deterministic U-net gives near copies of one completion: the uncertainty panels above are almost
+black. The shipped **masked sampler** (`load_model("sampler")`, `mcnkit.completion.masked`) is trained to predict
+$m_T$'s labels from $m_t$ *plus a random share of $m_T$'s cells already revealed*. To draw a sample it fills the
+unknown cells round by round: a few scattered cells first (they decide where the house ends and where the rooms
+are), each later round conditioned on every label drawn before, so walls continue, rooms close and doors appear.
+Cells that $m_t$ observed are never changed. Each of the K samples below is a different, whole house."""),
+code("""sampler = load_model("sampler")
+s = sample_completions(sampler, test.partial[rows], K, torch.Generator().manual_seed(SEED))
+cols = K + 3
+fig, axes = plt.subplots(len(rows), cols, figsize=(1.35 * cols, 1.45 * len(rows)), squeeze=False)
+for r, i in enumerate(rows):
+    show(axes[r, 0], test.partial[i], "m_t")
+    for j in range(K):
+        show(axes[r, 1 + j], s.samples[r, j], f"sample {j + 1}")
+    axes[r, K + 1].imshow(s.uncertainty[r], cmap="magma", vmin=0, vmax=1, interpolation="nearest")
+    axes[r, K + 1].set_title("uncertainty", fontsize=8)
+    axes[r, K + 1].set_xticks([])
+    axes[r, K + 1].set_yticks([])
+    show(axes[r, K + 2], test.target[i], "m_T")
+fig.suptitle(f"sampler: {K} samples per map", fontsize=10)
+fig.tight_layout()
+fig.savefig(RUN / "samples_sampler.png", dpi=100)
+plt.show()
+print(f"sampler: diversity {s.diversity.mean():.4f} (share of cells two samples differ on)")"""),
+md("""## How often is a cell free? Per-cell frequency and calibration
+Over many samples, the share of samples in which a cell is free is the sampler's probability that it is free.
+A calibrated sampler is right as often as it says: of the cells it calls free 70 % of the time, 70 % are free in
+$m_T$. The reliability diagram bins the unknown cells of every test map by that share and plots how often they
+are truly free; ECE is the mean gap, weighted by the cells in each bin. `score_samples` also says whether the
+samples look like houses: their free space in one region, and their boundary roughness against the true maps'."""),
+code("""K_FREQ = 16 if CI else 32
+many = np.concatenate([sample_completions(sampler, test.partial[i:i + 50], K_FREQ,
+                                          torch.Generator().manual_seed(SEED)).samples
+                       for i in range(0, len(test), 50)])
+freq = (many == FREE).mean(axis=1)  # (N, H, W): the share of samples that say free
+sc = score_samples(many, test.partial, test.target, first=min(8, K_FREQ))
+fig, axes = plt.subplots(1, 3, figsize=(11, 3.6))
+show(axes[0], test.partial[rows[0]], "m_t")
+im = axes[1].imshow(freq[rows[0]], cmap="viridis", vmin=0, vmax=1, interpolation="nearest")
+axes[1].set_title(f"free in how many of {K_FREQ} samples", fontsize=8)
+axes[1].set_xticks([])
+axes[1].set_yticks([])
+fig.colorbar(im, ax=axes[1], fraction=0.046)
+table = sc.reliability
+filled = table[:, 2] > 0
+axes[2].plot([0, 1], [0, 1], color="0.6", ls="--", lw=1, label="calibrated")
+axes[2].plot(table[filled, 0], table[filled, 1], "o-", label=f"sampler (ECE {sc.ece:.3f})")
+axes[2].set(xlabel="free in this share of the samples", ylabel="truly free", xlim=(0, 1), ylim=(0, 1),
+            title=f"reliability, {len(test)} test maps")
+axes[2].legend(fontsize=8)
+fig.tight_layout()
+fig.savefig(RUN / "reliability.png", dpi=100)
+plt.show()
+print(sc.summary())"""),
 md("""Compare the two sample figures and the diversity printed under each: the uncertainty map shows the cells
 on which the K samples disagree — where the completed house ends, where a wall or a door may be. Those
 disagreements are what MCN-SLAM uses later: each particle completes its own map, and where the samples differ

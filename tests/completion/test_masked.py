@@ -10,7 +10,7 @@ import torch
 from mcnkit.completion.checkpoint import load_generator, save_checkpoint
 from mcnkit.completion.masked import draw, reveal_for_training, reveal_share
 from mcnkit.completion.nets import MaskedSampler, SamplerConfig, UNetConfig
-from mcnkit.completion.sample import complete, inference_net, sample_completions
+from mcnkit.completion.sample import SubPixelUp, complete, inference_net, sample_completions
 from mcnkit.completion.train import TrainConfig, train
 from mcnkit.datasets import PairSplits
 from mcnkit.grid import ternary_to_network
@@ -47,11 +47,26 @@ def test_each_round_conditions_on_the_labels_drawn_before() -> None:
         return torch.full((x.shape[0], 1, *x.shape[2:]), 0.5)
 
     x = torch.stack([torch.full((2, 8, 8), 0.5), torch.ones(2, 8, 8)], dim=1)
-    out = draw(net, x, k=3, schedule=(0.25, 0.5, 1.0), generator=torch.Generator().manual_seed(0))
+    out, first = draw(net, x, k=3, schedule=(0.25, 0.5, 1.0), generator=torch.Generator().manual_seed(0))
     assert out.shape == (2, 3, 8, 8) and set(out.unique().tolist()) <= {0.0, 1.0}
+    assert first.shape == (2, 1, 8, 8)
     assert [len(s) for s in seen] == [2, 6, 6]              # the first round: one pass per map, shared by the K
     known = [float((s[:, 1] < 0.5).float().mean()) for s in seen]
     assert known[0] == 0.0 and 0.1 < known[1] < 0.4 and 0.35 < known[2] < 0.65
+
+
+def test_late_rounds_sharpen_and_settle_sweeps_take_the_likeliest_label() -> None:
+    def net(x: torch.Tensor) -> torch.Tensor:  # p(occupied) = 0.7 everywhere
+        return torch.full((x.shape[0], 1, *x.shape[2:]), 0.7)
+
+    x = torch.stack([torch.full((4, 16, 16), 0.5), torch.ones(4, 16, 16)], dim=1)
+    g = torch.Generator
+    plain, _ = draw(net, x, 8, (0.5, 1.0), g().manual_seed(0))
+    sharp, _ = draw(net, x, 8, (0.5, 1.0), g().manual_seed(0), late_temperature=0.05, late_from=0.5)
+    assert 0.6 < float(plain.mean()) < 0.8                     # calibrated: 70 % occupied
+    assert 0.8 < float(sharp.mean()) < 0.9                     # the second half drawn (almost) all occupied
+    settled, _ = draw(net, x, 8, (0.5, 1.0), g().manual_seed(0), settle=(1.0,))
+    assert float(settled.mean()) == 1.0                        # every cell set to its likeliest label
 
 
 def test_samples_keep_m_t_and_differ(tiny_splits: PairSplits) -> None:
@@ -84,6 +99,16 @@ def test_the_frozen_copy_computes_the_same_probabilities(tiny_splits: PairSplits
     assert isinstance(fast, MaskedSampler) and fast is not net
     with torch.no_grad():
         assert torch.allclose(fast(x), net(x), atol=1e-5)
+
+
+def test_the_frozen_copy_upsamples_by_sub_pixel_convolution_the_same_function() -> None:
+    torch.manual_seed(0)
+    deconv = torch.nn.ConvTranspose2d(6, 5, 4, 2, padding=1)
+    sub = SubPixelUp(deconv)
+    x = torch.randn(3, 6, 8, 8)
+    with torch.no_grad():
+        assert torch.allclose(sub(x), deconv(x), atol=1e-6)
+    assert any(isinstance(m, SubPixelUp) for m in inference_net(MaskedSampler(TINY).eval()).modules())
 
 
 def test_a_trained_sampler_round_trips_through_its_checkpoint(tmp_path: Path, tiny_splits: PairSplits) -> None:

@@ -3,7 +3,7 @@
 1. simulate a robot exploring a procedurally generated apartment (lidar + drifting odometry + ground truth);
 2. write it as a ROS2-profile MCAP log and show ``mcnkit info`` of it;
 3. run MCN-SLAM on the log: grid FastSLAM, and at every filter update K sampled completions of the R best
-   particles' maps by the shipped U-net, every step recorded to a Rerun file (``recordings/demo/demo.rrd``);
+   particles' maps by the shipped masked sampler, every step recorded to a Rerun file (``recordings/demo/demo.rrd``);
    write the trajectory (TUM), the map (PGM/YAML/PNG) and the last completions (PNG);
 4. score against the ground truth: trajectory (ATE, SLAM vs raw odometry) and map completion (F of the free
    space, SLAM map vs completed map, at the first and the last filter update).
@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 from mcnkit.app.options import add_options
 from mcnkit.app.recording import LIVE_CONST, LiveOptions
-from mcnkit.completion.registry import MODELS
+from mcnkit.completion.registry import DEFAULT_MODEL, MODELS
 
 if TYPE_CHECKING:
     from mcnkit.app.drive import Outcome, Signals
@@ -53,7 +53,7 @@ class DemoResult:
 
 
 def run_demo(out: Path, rrd: Path, *, apartment: int = 3, seed: int = 0, particles: int = 30,
-             duration_s: float = 120.0, samples: int = 4, ranks: int = 2, model: str = "unet",
+             duration_s: float = 120.0, samples: int = 4, ranks: int = 2, model: str = DEFAULT_MODEL,
              progress: bool = True, signals: Signals | None = None, live: LiveViewer | None = None,
              recording: RecordingConfig | None = None) -> DemoResult:
     """Simulates, records and scores one run (see the module docstring).
@@ -196,7 +196,7 @@ _DESCRIPTION = """MCN-SLAM end to end on embedded data (no download, shipped net
   1. simulate a robot exploring a procedurally generated apartment (lidar, drifting odometry, ground truth);
   2. write it as a ROS2-profile MCAP log and show 'mcnkit info' of it;
   3. run MCN-SLAM on the log: grid FastSLAM and, at every filter update, K sampled completions of the R best
-     particles' maps by the shipped U-net, every step recorded to a Rerun file (--rrd); write the trajectory
+     particles' maps by the shipped masked sampler, every step recorded to a Rerun file (--rrd); write the trajectory
      (TUM), the map (PGM/YAML/PNG) and the last completions (PNG) into --out;
   4. score against the ground truth: trajectory (ATE, SLAM vs raw odometry) and map completion (F of the free
      space, SLAM map vs completed map, at the first and the last filter update).
@@ -228,7 +228,7 @@ class DemoOptions(LiveOptions):
     """K completions per particle"""
     ranks: int = 2
     """R best particles completed"""
-    model: str = "unet"
+    model: str = DEFAULT_MODEL
     """a shipped model's name or a checkpoint path"""
 
 
@@ -237,5 +237,5 @@ def add_demo_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p = sub.add_parser("demo", help="simulate an apartment, run MCN-SLAM on its log, record it for Rerun (no dataset)",
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_options(p, DemoOptions, const=LIVE_CONST,
-                help={"model": f"{', '.join(MODELS)} (shipped weights) or a checkpoint path (default unet)"})
+                help={"model": f"{', '.join(MODELS)} (shipped weights) or a checkpoint path (default {DEFAULT_MODEL})"})
     p.set_defaults(func=_main)

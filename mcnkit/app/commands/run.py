@@ -29,7 +29,7 @@ from typing import Literal
 
 from mcnkit.app.options import add_options
 from mcnkit.app.recording import LIVE_CONST, LiveOptions
-from mcnkit.completion.registry import MODELS
+from mcnkit.completion.registry import DEFAULT_MODEL, MODELS
 from mcnkit.mcn_config import McnConfig
 from mcnkit.slam.config import SlamConfig
 
@@ -65,7 +65,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             ("every", "every"), ("full_map_every", "map-every"))}
         config = resolve_section(McnConfig, args, "mcn", file, short, defaults={"full_map_every": _RUN_MAP_EVERY})
         recording = resolve_section(RecordingConfig, args, "recording", file)
-        model_name = args.model if args.model is not None else file.get("model", "unet-explore")
+        model_name = args.model if args.model is not None else file.get("model", DEFAULT_MODEL)
         if not isinstance(model_name, str):
             raise ConfigError(f"{args.config}: model: expected a name or a path, got {model_name!r}")
         live = live_viewer(args, recording)
@@ -137,7 +137,7 @@ class RunOptions(LiveOptions):
     """replace existing outputs (--rrd, --out files)"""
     model: str | None = None
     """completion network: a shipped model's name or a checkpoint path (default: the config file's, else
-    unet-explore)"""
+    sampler-explore)"""
     config: Path | None = None
     """settings file: TOML ([slam], [slam.SECTION], [mcn] and [recording] tables, seed = N, model = NAME) or a
     run's summary.json (re-runs it); flags given here override it"""
@@ -190,7 +190,8 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
                        "--recording.FIELD); summary.json and the recording (/config) hold the whole configuration, "
                        "and --config OUT/summary.json re-runs it.")
     model = (f"completion network: {', '.join(MODELS)} (shipped weights) or a checkpoint path (default: the config "
-             "file's, else unet-explore: the U-net trained on maps part-way through an exploration, which leaves the "
-             "outside of a building occupied; unet is the paper's, trained on one-scan maps)")
+             f"file's, else {DEFAULT_MODEL}: the masked sampler trained on maps part-way through an exploration, whose "
+             "K samples are K different houses; sampler is trained on the paper's one-scan maps; unet, unet-explore "
+             "and pix2pix are deterministic nets whose samples differ only by dropout)")
     add_options(p, RunOptions, positional=("log",), const=LIVE_CONST, help={"model": model})
     p.set_defaults(func=cmd_run)

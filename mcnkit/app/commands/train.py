@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from mcnkit.app.exits import fail
 from mcnkit.app.options import add_options, from_args
 from mcnkit.completion.registry import DOMAINS
+from mcnkit.completion.train_config import TrainConfig
 
 __all__ = ["add_train_parser", "cmd_train", "main"]
 
@@ -21,41 +22,15 @@ _FLAGS = {"out_dir": "--out", "ema_decay": "--ema", "cache_dir": "--cache", "aug
           "augment_transpose": "--flips-only", "progress": "--no-progress"}
 """TrainConfig fields whose flag is not their name (the last three turn the field off)."""
 
-_HELP = {
-    "model": "unet: the generator alone (L2 loss); pix2pix: the same generator with a patch discriminator; sampler: "
-             "a masked sampler that draws whole maps round by round",
-    "domain": "houseexpo: the paper's pairs (one 180°, 2 m scan); houseexpo-explore: m_t after 1-12 scans of a "
-              "360°, 8 m lidar (what MCN-SLAM completes during a run); procedural: HOME'S-style masks",
-    "out_dir": "run directory (best.* and last.* checkpoints)",
-    "n_train": "training pairs", "n_val": "validation pairs, scored after each epoch",
-    "n_test": "test pairs built with the split (part of the cache key)",
-    "epochs": "passes over the training pairs", "batch_size": "pairs per optimiser step",
-    "lr": "Adam learning rate of the generator",
-    "lr_discriminator": "pix2pix: Adam learning rate of the discriminator",
-    "beta1": "Adam beta1 of the generator (pix2pix: 0.5)",
-    "seed": "seed of the pairs, the weights and the batches",
-    "unknown_weight": "L2 weight on cells unknown in m_t", "recon_weight": "pix2pix: weight of the L2 term",
-    "gan_weight": "pix2pix: weight of the adversarial term", "augment": "no flips / rot90",
-    "augment_transpose": "augment by flips only, no transposes (HouseExpo)",
-    "base_channels": "channels of the first U-net level", "max_channels": "channels of the deeper levels at most",
-    "depth": "U-net levels; the map side must divide by 2^depth",
-    "dropout": "dropout probability, kept on when sampling completions",
-    "dropout_levels": "innermost decoder levels that carry dropout",
-    "free_weight": "L2 weight factor on cells whose target is free",
-    "ema_decay": "EMA decay of the generator weights (0: off), e.g. 0.999",
-    "max_minutes": "stop after this wall time (ends the epoch)", "max_steps": "stop after this many optimiser steps",
-    "init_from": "initialise the generator from this checkpoint", "resume": "continue from OUT/last",
-    "device": "auto (CUDA when present), cpu, cuda", "threads": "torch CPU threads",
-    "houseexpo": "HouseExpo json.tar.gz (default: installed, then ../shared/data)",
-    "cache_dir": "pair cache directory (default: <data>/cache/houseexpo-N)", "progress": "no progress bar",
-}
-"""Help of the TrainConfig fields that carry no docstring, and of the renamed flags that turn a field off."""
+_HELP = {"augment": "no flips / transposes", "augment_transpose": "augment by flips only, no transposes (HouseExpo)",
+         "progress": "no progress bar"}
+"""Help of the flags that turn a field off (the other flags take their field's docstring)."""
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    """``mcnkit train --model unet|pix2pix --out DIR ...`` (torchrun-aware)."""
+    """``mcnkit train --model unet|pix2pix|sampler --out DIR ...`` (torchrun-aware)."""
     from mcnkit.completion.checkpoint import CheckpointError
-    from mcnkit.completion.train import TrainConfig, distributed_train
+    from mcnkit.completion.train import distributed_train
 
     try:
         res = distributed_train(from_args(TrainConfig, args, flags=_FLAGS))
@@ -72,10 +47,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def add_train_parser(subparsers: argparse._SubParsersAction) -> None:
-    """Adds ``train``: a flag for every :class:`~mcnkit.completion.train.TrainConfig` field."""
-    from mcnkit.completion.train import TrainConfig
-
-    p = subparsers.add_parser("train", help="train a map completion network (U-net or pix2pix)")
+    """Adds ``train``: a flag for every :class:`~mcnkit.completion.train_config.TrainConfig` field."""
+    p = subparsers.add_parser("train", help="train a map completion network (U-net, pix2pix or masked sampler)")
     add_options(p, TrainConfig, flags=_FLAGS, choices={"domain": DOMAINS}, required=("out_dir",), help=_HELP)
     p.set_defaults(func=cmd_train)
 
