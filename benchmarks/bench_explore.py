@@ -255,10 +255,10 @@ def plot(rows: list[dict[str, Any]], path: Path, budget_m: float) -> None:
 
 
 STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]] = {
-    "unknown, ratio": ("mcn", None, {}, {}),
-    "unknown, ratio, goal kept": ("mcn", None, {"commit": True}, {}),
-    "unknown, ratio, margin 1 m": ("mcn", None, {"window_margin_m": 1.0}, {}),
-    "unknown, exp λ=0.1": ("mcn", None, {"tradeoff": "exp", "cost_lambda_per_m": 0.1}, {}),
+    "unknown, ratio": ("mcn", None, {"gain": "unknown"}, {}),
+    "unknown, ratio, goal kept": ("mcn", None, {"gain": "unknown", "commit": True}, {}),
+    "unknown, ratio, margin 1 m": ("mcn", None, {"gain": "unknown", "window_margin_m": 1.0}, {}),
+    "unknown, exp λ=0.1": ("mcn", None, {"gain": "unknown", "tradeoff": "exp", "cost_lambda_per_m": 0.1}, {}),
     "disagreement, ratio": ("mcn", None, {"gain": "disagreement"}, {}),
     "observed (no prediction), ratio": ("mcn", None, {"gain": "observed"}, {}),
     "frontier, goal re-chosen every step": ("frontier", None, {}, {"commit_m": 0.0}),
@@ -294,7 +294,7 @@ def main() -> None:
     variants = dict(STUDY_VARIANTS)
     for model in args.study_models:
         tag = Path(model).name
-        variants |= {f"{tag}: unknown, ratio": ("mcn", model, {}, {}),
+        variants |= {f"{tag}: unknown, ratio": ("mcn", model, {"gain": "unknown"}, {}),
                      f"{tag}: disagreement, ratio": ("mcn", model, {"gain": "disagreement"}, {})}
     if args.study:
         ids = study_house_ids(source, shared / "houseexpo", args.study_houses)

@@ -99,8 +99,7 @@ class GainConfig:
     """Rays per viewpoint of the visibility cast."""
     commit: bool = False
     """Keep the goal until it is reached, as the frontier planner does (ExploreConfig.commit_m); off: choose the best
-    score afresh at every planning step, which measured better on unused training-list houses
-    (benchmarks/results/explore_study.json)."""
+    score afresh at every planning step."""
 
     def __post_init__(self) -> None:
         if self.samples < 1 or self.beams < 4:

@@ -113,6 +113,10 @@ def cmd_explore(args: argparse.Namespace) -> int:
     finally:
         if recorder is not None:
             recorder.close()
+    if args.rrd is not None and stopped_by is None and args.rrd.is_file():
+        from mcnkit.viz.files import optimize_recording
+
+        optimize_recording(args.rrd)  # compacted, as mcnkit run's finished recordings are
     with SIGNALS.deferred():
         f_slam, f_done = final_map_f(explorer, net, gain_cfg.samples, torch.Generator().manual_seed(seed))
         summary = summarize(explorer, f_slam, f_done)
