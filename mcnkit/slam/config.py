@@ -41,6 +41,11 @@ class MotionConfig:
     """``use`` the log's odometry where it holds some; ``ignore`` it: every scan's motion is found from the scans
     alone (lidar-only), as in a log without odometry, so that any log can be run the way a handheld scanner's
     would be (``summary.json`` says ``"lidar_only": true``)."""
+    check_odometry: bool = False
+    """Where the odometry of a step is unlike what the robot has been doing (the motion prior), also find the step
+    from the scans alone and keep that instead when the scans explain it better (wheels that slip or spin).  Off
+    by default: it adds a wide scan search on every such step, and a motion prior that is unsure can outvote good
+    odometry."""
     srr: float = 0.1
     """Odometry error in translation as a function of translation [srr]."""
     srt: float = 0.2

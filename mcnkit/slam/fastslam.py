@@ -249,7 +249,7 @@ class FastSlam:
             guess = self.prior.predict(dt_s if dt_s > 0 else None)
             found = self._track(beams, odom, move) if known else None
             cov = None  # the spread of a motion found from the scans alone
-            if found is not None and self._unlike_prior(move, guess):  # wheels that spin or slip? ask the scans
+            if found is not None and cfg.motion.check_odometry and self._unlike_prior(move, guess):  # slipping wheels?
                 alt, alt_cov = self._track_unknown_motion(beams, odom, guess)
                 scans_say = alt if self._explains_better(alt, found, beams) else found
                 if not self._unlike_prior(relative(self._scan_online[-1], scans_say), guess):  # as the robot went

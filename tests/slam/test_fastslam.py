@@ -181,7 +181,8 @@ def test_odometry_that_says_forward_while_the_robot_backs_up_is_caught() -> None
               for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
     errors, rejected = {}, {}
     for wide in (True, False):
-        slam = FastSlam(SlamConfig(n_particles=10, wide=WideConfig(search=wide), loops=LoopsConfig(closure=False)), np.random.default_rng(0))
+        slam = FastSlam(SlamConfig(n_particles=10, motion=MotionConfig(check_odometry=True), wide=WideConfig(search=wide),
+                                   loops=LoopsConfig(closure=False)), np.random.default_rng(0))
         for f in frames:
             slam.step(f)
         est = slam.trajectory().poses

@@ -142,7 +142,8 @@ def test_odometry_that_slips_falls_back_to_the_motion_from_the_scans_and_is_coun
     for k in range(1, len(truth)):
         step = np.array([0.6, 0.0, 0.0]) if 51 <= k < 56 else relative(truth[k - 1], truth[k])
         odom.append(compose(odom[-1], step))
-    slam = FastSlam(SlamConfig(n_particles=10, loops=LoopsConfig(closure=False)), np.random.default_rng(0))
+    slam = FastSlam(SlamConfig(n_particles=10, motion=MotionConfig(check_odometry=True), loops=LoopsConfig(closure=False)),
+                    np.random.default_rng(0))
     for f in _frames(np.array(truth), np.array(odom), 3):
         slam.step(f)
     assert slam.n_odometry_rejected == 5 and not slam.lidar_only
