@@ -44,7 +44,7 @@ class MotionConfig:
     check_odometry: bool = False
     """Where the odometry of a step is unlike what the robot has been doing (the motion prior), also find the step
     from the scans alone and keep that instead when the scans explain it better (wheels that slip or spin).  Off
-    by default: it adds a wide scan search on every such step, and a motion prior that is unsure can outvote good
+    unless asked: it adds a wide scan search on every such step, and a motion prior that is unsure can outvote good
     odometry."""
     srr: float = 0.1
     """Odometry error in translation as a function of translation [srr]."""
