@@ -1,0 +1,86 @@
+"""Is a log's reference a fair judge of a few tenths of a metre?  ATE against it, beside how well each trajectory
+agrees with the log's own scans.
+
+For one log with a reference (a Radish corrected log, e.g. the MIT Infinite Corridor of the public acschaefer/ple
+repository, not in ``../shared``): runs the documented ``mcnkit slam`` at each seed, then scores every run and the
+reference itself with ``mcnkit eval consistency`` (relations the scans measure: sequential pairs for the local shape,
+revisits for the global one; lower agrees better) and the runs' ATE against the reference and against each other.
+Where the runs agree with the scans as well as the reference does or better, yet differ from it and from each other
+by more than a target, that target measures the reference's choices along directions the scans leave open (a
+corridor's axis), not the SLAM.
+
+Printed and written to ``benchmarks/results/NAME_consistency.{md,json}``.
+
+    .venv/bin/python -m benchmarks.studies.corridor_consistency /path/infinite-corridor-corrected.log.gz [--seeds 0 1 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import subprocess
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+from benchmarks.common import RESULTS, SLAM_ENV, slam_command
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("log", type=Path, help="a log with one reference pose per scan (a Radish corrected log)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="seeds of the runs (default 0 1 2)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output stem (default benchmarks/results/NAME_consistency, NAME from the log's file name)")
+    args = parser.parse_args()
+    if not args.log.exists():
+        parser.error(f"log {args.log}: no such file")
+    from mcnkit.metrics import absolute_trajectory_error, read_tum
+
+    name = args.log.name.split(".")[0].removesuffix("-corrected")
+    out = args.out or RESULTS / f"{name}_consistency"
+    with tempfile.TemporaryDirectory() as tmp_dir:
+        tmp = Path(tmp_dir)
+        ref = tmp / "reference.tum"
+        subprocess.run([sys.executable, "-m", "mcnkit.app.main", "eval", "groundtruth", str(args.log), str(ref)],
+                       check=True, env=SLAM_ENV, capture_output=True)
+        runs = {}
+        for seed in args.seeds:
+            print(f"{name}: mcnkit slam seed {seed}", flush=True)
+            subprocess.run(slam_command(args.log, seed, tmp / f"seed{seed}"), check=True, env=SLAM_ENV,
+                           capture_output=True)
+            runs[f"seed {seed}"] = tmp / f"seed{seed}" / "trajectory.tum"
+        named = {"reference": ref, **runs}
+        proc = subprocess.run([sys.executable, "-m", "mcnkit.app.main", "eval", "consistency", str(args.log),
+                               *map(str, named.values()), "--match", "order", "--no-progress", "--json"],
+                              check=True, env=SLAM_ENV, capture_output=True, text=True)
+        scored = json.loads(proc.stdout)["trajectories"]
+        consistency = {label: scored[str(path)] for label, path in named.items()}
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            tracks = {label: read_tum(path) for label, path in named.items()}
+        ate = {f"{a} vs {b}": absolute_trajectory_error(tracks[b], tracks[a], match="order").rmse_m
+               for a, b in itertools.combinations(named, 2)}
+    lines = [f"# {name}: ATE against the reference beside agreement with the log's own scans",
+             "", "`python -m benchmarks.studies.corridor_consistency LOG` (mean relation error, lower = agrees better)",
+             "", "| trajectory | ATE vs reference (m) | sequential (m / deg) | revisits (m / deg) |", "|---|---|---|---|"]
+    for label in named:
+        c = consistency[label]
+        a = "–" if label == "reference" else f"{ate[f'reference vs {label}']:.3f}"
+        lines.append(f"| {label} | {a} | {c['sequential']['translation_mean_m']:.4f} / "
+                     f"{c['sequential']['rotation_mean_deg']:.3f} | {c['revisits']['translation_mean_m']:.4f} / "
+                     f"{c['revisits']['rotation_mean_deg']:.3f} |")
+    lines += ["", "ATE between the runs themselves (m): " + ", ".join(
+        f"{k} {v:.3f}" for k, v in ate.items() if not k.startswith("reference"))]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    out.with_suffix(".md").write_text(text)
+    out.with_suffix(".json").write_text(json.dumps({"log": args.log.name, "seeds": args.seeds, "ate_m": ate,
+                                                    "consistency": consistency}, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
