@@ -35,7 +35,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from benchmarks.common import BUILDINGS, RESULTS, data_dir
-from mcnkit.geometry import compose, relative
+from mcnkit.geometry import compose, relative, wrap_angle
 from mcnkit.io import open_log
 from mcnkit.slam.correlative import likelihood_grid, match_scan, thin_points
 from mcnkit.slam.scanmatch import beam_points
@@ -52,7 +52,6 @@ class Placeability:
     building: str
     scans: int
     placed: int
-    ambiguous: int
     misplaced: int
     longest_misplaced_run: int
     reach_rad: float
@@ -63,6 +62,11 @@ class Placeability:
     one before it)."""
     ambiguous_after_miss: int
     """Ambiguous scans whose step the prior misses that far: neither the map nor the prior places them."""
+
+    @property
+    def ambiguous(self) -> int:
+        """How many scans are ambiguous."""
+        return len(self.ambiguous_scans)
 
 
 def _far_best(grid: object, scan: np.ndarray, truth: np.ndarray, window_m: float, reach_rad: float) -> float:
@@ -123,11 +127,11 @@ def building(name: str, log: str, window_m: float) -> Placeability:
     mis = [k + 1 for k, label in enumerate(labels) if label == "misplaced"]
     amb = [k + 1 for k, label in enumerate(labels) if label == "ambiguous"]
     miss_step = steps[1:] - steps[:-1]  # step k+1 against step k: what a constant-step prior gets wrong
-    miss_step[:, 2] = (miss_step[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    miss_step[:, 2] = wrap_angle(miss_step[:, 2])
     missed = np.r_[False, False, (np.hypot(miss_step[:, 0], miss_step[:, 1]) > PRIOR_MISS_M)
                    | (np.abs(miss_step[:, 2]) > PRIOR_MISS_RAD)]  # per scan index
-    return Placeability(name, len(frames), labels.count("placed"), labels.count("ambiguous"), len(mis), longest,
-                        reach_rad, mis[:20], amb, int(missed.sum()), int(missed[amb].sum()) if amb else 0)
+    return Placeability(name, len(frames), labels.count("placed"), len(mis), longest, reach_rad, mis[:20], amb,
+                        int(missed.sum()), int(missed[amb].sum()) if amb else 0)
 
 
 def main() -> int:
@@ -155,15 +159,18 @@ def main() -> int:
     table = "\n".join(lines)
     text = ("# Which scans a matcher can place without odometry (`benchmarks/studies/lidar_placeability.py`)\n\n"
             "Each scan searched for on the map of the scans before it, built from the reference poses "
-            f"(± {args.window_m} m, the log's heading reach): *placed* when no pose farther than 0.3 m / 5° from "
-            "the truth explains it within 5 % as well, *ambiguous* when one explains it 95-125 % as well (a motion "
-            "prior decides), *misplaced* when one explains it ≥ 1.25× better (no prior outvotes it). *Prior misses*: "
-            "steps a constant-step prior (the step before) misses by more than 0.5 m or 15°; *ambiguous after a "
-            "miss*: ambiguous scans among them, which neither the map nor that prior places.\n\n" + table + "\n")
+            f"(± {args.window_m} m, the log's heading reach): *placed* when no pose farther than {FAR_M} m / "
+            f"{math.degrees(FAR_RAD):.0f}° from the truth explains it within {100 * (1 - NEAR_RATIO):.0f} % as well, "
+            f"*ambiguous* when one explains it {100 * NEAR_RATIO:.0f}-{100 * JUMP:.0f} % as well (a motion prior "
+            f"decides), *misplaced* when one explains it ≥ {JUMP}× better (no prior outvotes it). *Prior misses*: "
+            f"steps a constant-step prior (the step before) misses by more than {PRIOR_MISS_M} m or "
+            f"{math.degrees(PRIOR_MISS_RAD):.0f}°; *ambiguous after a miss*: ambiguous scans among them, which "
+            "neither the map nor that prior places.\n\n" + table + "\n")
     with open(args.out + ".md", "w") as fh:
         fh.write(text)
     with open(args.out + ".json", "w") as fh:
-        json.dump({"window_m": args.window_m, "rows": [asdict(r) for r in rows]}, fh, indent=2)
+        json.dump({"window_m": args.window_m, "rows": [asdict(r) | {"ambiguous": r.ambiguous} for r in rows]}, fh,
+                  indent=2)
         fh.write("\n")
     return 0
 
