@@ -4,7 +4,8 @@ agrees with the log's own scans.
 For one log with a reference (a Radish corrected log, e.g. the MIT Infinite Corridor of the public acschaefer/ple
 repository, not in ``../shared``): runs the documented ``mcnkit slam`` at each seed, then scores every run and the
 reference itself with ``mcnkit eval consistency`` (relations the scans measure: sequential pairs for the local shape,
-revisits for the global one; lower agrees better) and the runs' ATE against the reference and against each other.
+revisits for the global one; lower agrees better) and the runs' ATE against the reference and against each other,
+every trajectory paired with the scans by order (one pose per scan).
 Where the runs agree with the scans as well as the reference does or better, yet differ from it and from each other
 by more than a target, that target measures the reference's choices along directions the scans leave open (a
 corridor's axis), not the SLAM.
@@ -28,6 +29,14 @@ from pathlib import Path
 from benchmarks.common import RESULTS, SLAM_ENV, slam_command
 
 
+def _run(cmd: list[str], what: str) -> str:
+    """Runs one mcnkit command; its stdout, or exits with one line naming ``what`` failed and why."""
+    proc = subprocess.run(cmd, env=SLAM_ENV, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"{what} failed: {(proc.stderr.strip().splitlines() or ['no message'])[-1]}")
+    return proc.stdout
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("log", type=Path, help="a log with one reference pose per scan (a Radish corrected log)")
@@ -44,19 +53,17 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp_dir:
         tmp = Path(tmp_dir)
         ref = tmp / "reference.tum"
-        subprocess.run([sys.executable, "-m", "mcnkit.app.main", "eval", "groundtruth", str(args.log), str(ref)],
-                       check=True, env=SLAM_ENV, capture_output=True)
+        _run([sys.executable, "-m", "mcnkit.app.main", "eval", "groundtruth", str(args.log), str(ref)],
+             f"mcnkit eval groundtruth {args.log}")
         runs = {}
         for seed in args.seeds:
             print(f"{name}: mcnkit slam seed {seed}", flush=True)
-            subprocess.run(slam_command(args.log, seed, tmp / f"seed{seed}"), check=True, env=SLAM_ENV,
-                           capture_output=True)
+            _run(slam_command(args.log, seed, tmp / f"seed{seed}"), f"mcnkit slam {args.log} --seed {seed}")
             runs[f"seed {seed}"] = tmp / f"seed{seed}" / "trajectory.tum"
         named = {"reference": ref, **runs}
-        proc = subprocess.run([sys.executable, "-m", "mcnkit.app.main", "eval", "consistency", str(args.log),
-                               *map(str, named.values()), "--match", "order", "--no-progress", "--json"],
-                              check=True, env=SLAM_ENV, capture_output=True, text=True)
-        scored = json.loads(proc.stdout)["trajectories"]
+        scored = json.loads(_run([sys.executable, "-m", "mcnkit.app.main", "eval", "consistency", str(args.log),
+                                  *map(str, named.values()), "--match", "order", "--no-progress", "--json"],
+                                 f"mcnkit eval consistency {args.log}"))["trajectories"]
         consistency = {label: scored[str(path)] for label, path in named.items()}
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -76,8 +83,8 @@ def main() -> int:
         f"{k} {v:.3f}" for k, v in ate.items() if not k.startswith("reference"))]
     text = "\n".join(lines) + "\n"
     print(text)
-    out.with_suffix(".md").write_text(text)
-    out.with_suffix(".json").write_text(json.dumps({"log": args.log.name, "seeds": args.seeds, "ate_m": ate,
+    Path(f"{out}.md").write_text(text)
+    Path(f"{out}.json").write_text(json.dumps({"log": args.log.name, "seeds": args.seeds, "ate_m": ate,
                                                     "consistency": consistency}, indent=2) + "\n")
     return 0
 
