@@ -22,6 +22,7 @@ Printed and written to ``benchmarks/results/lidar_placeability.{md,json}``.  A b
 come in a run no prior bridges cannot be mapped without odometry by this kind of matcher.
 
     .venv/bin/python -m benchmarks.studies.lidar_placeability [--only intel aces] [--data DIR]
+    .venv/bin/python -m benchmarks.studies.lidar_placeability --only intel --compare RUN/trajectory.tum --out /tmp/p
 """
 
 from __future__ import annotations
@@ -31,12 +32,14 @@ import json
 import math
 import warnings
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 
 from benchmarks.common import BUILDINGS, RESULTS, data_dir
 from mcnkit.geometry import compose, relative, wrap_angle
 from mcnkit.io import open_log
+from mcnkit.metrics import read_tum
 from mcnkit.slam.correlative import likelihood_grid, match_scan, thin_points
 from mcnkit.slam.scanmatch import beam_points
 
@@ -52,10 +55,9 @@ class Placeability:
     building: str
     scans: int
     placed: int
-    misplaced: int
     longest_misplaced_run: int
     reach_rad: float
-    first_misplaced: list[int]
+    misplaced_scans: list[int]
     ambiguous_scans: list[int]
     prior_misses: int
     """Steps a constant-step prior misses by more than PRIOR_MISS_M or PRIOR_MISS_RAD (the true step against the
@@ -67,6 +69,15 @@ class Placeability:
     def ambiguous(self) -> int:
         """How many scans are ambiguous."""
         return len(self.ambiguous_scans)
+
+    @property
+    def misplaced(self) -> int:
+        """How many scans are misplaced."""
+        return len(self.misplaced_scans)
+
+    def label(self, scan: int) -> str:
+        """``placed``, ``ambiguous`` or ``misplaced``: what the study found for scan number ``scan``."""
+        return "ambiguous" if scan in self.ambiguous_scans else "misplaced" if scan in self.misplaced_scans else "placed"
 
 
 def _far_best(grid: object, scan: np.ndarray, truth: np.ndarray, window_m: float, reach_rad: float) -> float:
@@ -130,8 +141,27 @@ def building(name: str, log: str, window_m: float) -> Placeability:
     miss_step[:, 2] = wrap_angle(miss_step[:, 2])
     missed = np.r_[False, False, (np.hypot(miss_step[:, 0], miss_step[:, 1]) > PRIOR_MISS_M)
                    | (np.abs(miss_step[:, 2]) > PRIOR_MISS_RAD)]  # per scan index
-    return Placeability(name, len(frames), labels.count("placed"), len(mis), longest, reach_rad, mis[:20], amb,
-                        int(missed.sum()), int(missed[amb].sum()) if amb else 0)
+    return Placeability(name, len(frames), labels.count("placed"), longest, reach_rad, mis, amb, int(missed.sum()),
+                        int(missed[amb].sum()) if amb else 0)
+
+
+def wrong_steps(run: np.ndarray, reference: np.ndarray, row: Placeability, most: int = 10) -> list[str]:
+    """The first ``most`` steps of a run's trajectory (K, 3) that differ from the reference's (K, 3) by more than
+    FAR_M or FAR_RAD, each with the reference's step, the step before it and the study's label of its scan."""
+    if len(run) != len(reference):
+        raise SystemExit(f"--compare: {len(run)} poses against {len(reference)} reference poses (one per scan needed)")
+    ref_steps, run_steps = relative(reference[:-1], reference[1:]), relative(run[:-1], run[1:])
+    err = run_steps - ref_steps
+    err[:, 2] = wrap_angle(err[:, 2])
+    bad = np.flatnonzero((np.hypot(err[:, 0], err[:, 1]) > FAR_M) | (np.abs(err[:, 2]) > FAR_RAD))
+    out = []
+    for k in bad[:most]:
+        before = ref_steps[k - 1] if k else np.zeros(3)
+        out.append(f"scan {k + 1} ({row.label(int(k) + 1)}): off by {np.hypot(*err[k, :2]):.2f} m "
+                   f"{math.degrees(abs(err[k, 2])):.1f}°; reference step {np.hypot(*ref_steps[k, :2]):.2f} m "
+                   f"{math.degrees(ref_steps[k, 2]):+.1f}°, the step before {np.hypot(*before[:2]):.2f} m "
+                   f"{math.degrees(before[2]):+.1f}°")
+    return out
 
 
 def main() -> int:
@@ -141,7 +171,14 @@ def main() -> int:
     parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     parser.add_argument("--window-m", type=float, default=2.0, help="± search window in x and y (the lidar-only default)")
     parser.add_argument("--out", default=str(RESULTS / "lidar_placeability"), help="output stem (.md and .json)")
+    parser.add_argument("--compare", type=Path, metavar="TUM",
+                        help="a run's trajectory.tum of the one building --only names: also print its first steps "
+                             "that the reference's differ from, with the study's label of each scan")
     args = parser.parse_args()
+    if args.compare is not None and (args.extra or not args.only or len(args.only) != 1):
+        parser.error("--compare needs exactly one building in --only (and no --extra)")
+    if args.compare is not None and not args.compare.exists():
+        parser.error(f"--compare {args.compare}: no such file")
     data = data_dir(args.data)
     logs = [(n, str(data / BUILDINGS[n][0])) for n in (args.only or [b for b in BUILDINGS if b != "mit-csail"])]
     logs += [(p.split("/")[-1].split(".")[0].removesuffix("-corrected"), p) for p in args.extra]
@@ -152,10 +189,17 @@ def main() -> int:
         row = building(name, log, args.window_m)
         rows.append(row)
         line = (f"| {name} | {row.scans} | {row.placed} | {row.ambiguous} | {row.misplaced} | {row.longest_misplaced_run}"
-                f" | ±{math.degrees(row.reach_rad):.0f}° | {', '.join(map(str, row.first_misplaced[:8]))} "
+                f" | ±{math.degrees(row.reach_rad):.0f}° | {', '.join(map(str, row.misplaced_scans[:8]))} "
                 f"| {row.prior_misses} | {row.ambiguous_after_miss} |")
         lines.append(line)
         print(line, flush=True)
+        if args.compare is not None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                with open_log(log) as reader:
+                    ref = reader.ground_truth()
+            assert ref is not None  # building() already required it
+            print("\n".join(wrong_steps(read_tum(args.compare).poses, ref.poses, row)))
     table = "\n".join(lines)
     text = ("# Which scans a matcher can place without odometry (`benchmarks/studies/lidar_placeability.py`)\n\n"
             "Each scan searched for on the map of the scans before it, built from the reference poses "
@@ -169,7 +213,8 @@ def main() -> int:
     with open(args.out + ".md", "w") as fh:
         fh.write(text)
     with open(args.out + ".json", "w") as fh:
-        json.dump({"window_m": args.window_m, "rows": [asdict(r) | {"ambiguous": r.ambiguous} for r in rows]}, fh,
+        json.dump({"window_m": args.window_m,
+                   "rows": [asdict(r) | {"ambiguous": r.ambiguous, "misplaced": r.misplaced} for r in rows]}, fh,
                   indent=2)
         fh.write("\n")
     return 0
