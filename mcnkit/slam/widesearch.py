@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from mcnkit.geometry import relative
 from mcnkit.slam.config import SlamConfig
-from mcnkit.slam.correlative import LikelihoodGrid, likelihood_grid, match_scan, thin_points
+from mcnkit.slam.correlative import LikelihoodGrid, angular_step, likelihood_grid, match_scan, thin_points
 from mcnkit.slam.maps import TiledHitMaps
 
 __all__ = ["tracking_grid", "unknown_motion_match", "wide_match", "wide_window"]
@@ -102,7 +102,10 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
     (:class:`mcnkit.slam.scanmotion.MotionPrior`) puts it now and ``sigma`` (3,; its frame) how far off that may
     be.  A pose scores ``beams · log(score) - min(d² / 2, cap)``:
     the match's mean likelihood counted as ``updates.proposal_beams`` independent beams (as the improved proposal
-    counts a scan), and the squared Mahalanobis distance ``d²`` from the prediction, whose penalty stops at
+    counts a scan), and the squared Mahalanobis distance ``d²`` from the prediction (the prior's spread widened by
+    the search lattice, a cell and an angular step: the lattice pose nearest the prediction is often a cell off, and
+    a prior tighter than a cell would otherwise push it to the cap, where any look-alike pose can outscore it),
+    whose penalty stops at
     ``cap = beams · log(1 / wide.jump_ratio)`` (about 3σ): the robot may change what it does at any scan, and a
     pose beyond the prior's reach wins when it explains the scan ``1 / jump_ratio`` times better, as the wide
     search lets a pose far from the odometry's prediction win.  The candidates are the best match in windows
@@ -122,9 +125,13 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
     rad = min(max(3.0 * float(sigma[2]), floor_rad), config.motion.unknown_window_rad)
 
     cap = beams * math.log(1.0 / config.wide.jump_ratio)
+    # the search places a scan on its lattice (a cell, an angular step): the pose nearest the prediction that it can
+    # return may lie a cell off, so the distance is judged against the prior's spread and the lattice's together
+    lattice = np.array([res, res, angular_step(scan, res)])
+    spread = np.sqrt(np.asarray(sigma, np.float64) ** 2 + lattice**2)
 
     def value(pose: F64, score: float) -> float:
-        d = relative(predicted, pose) / sigma
+        d = relative(predicted, pose) / spread
         return beams * math.log(score) - min(0.5 * float(d @ d), cap)
 
     best: tuple[float, F64] | None = None

@@ -111,6 +111,27 @@ def test_a_pose_far_from_the_prediction_wins_when_it_explains_the_scan_clearly_b
     assert np.hypot(*(found[:2] - truth[:2])) < 0.1 and abs(found[2] - truth[2]) < math.radians(1.5)
 
 
+def test_a_prior_tighter_than_a_search_cell_still_beats_a_look_alike() -> None:
+    # a corner the robot stands in, and 1.5 m away a copy of it turned 50° that the map holds a little sharper:
+    # the scan explains the copy slightly better (not 1 / jump_ratio better), and a steady robot's prior is a few
+    # centimetres, less than the search's 10 cm cell, so every pose the search can return near the prediction lies
+    # several prior sigmas off
+    rng = np.random.default_rng(3)
+    arm = np.arange(0.3, 1.5, 0.02)
+    corner = np.r_[np.c_[arm, np.full_like(arm, 0.4)], np.c_[np.full_like(arm, 0.4), arm], np.c_[arm, np.full_like(arm, -0.6)]]
+    copy_pose = np.array([1.5, -0.2, math.radians(50)])
+    c, s = math.cos(copy_pose[2]), math.sin(copy_pose[2])
+    copy = corner @ np.array([[c, s], [-s, c]]) + copy_pose[:2]
+    blurred = corner + rng.normal(0, 0.04, corner.shape)
+    grid = likelihood_grid(np.r_[blurred, copy], 0.1, 0.1, 0.1, depth=5)
+    scan = corner + rng.normal(0, 0.005, corner.shape)  # the robot at the origin
+    predicted = np.array([0.04, -0.03, 0.01])
+    found = unknown_motion_match(grid, np.zeros(3), predicted, np.array([0.02, 0.02, math.radians(1.0)]),
+                                 (2.0, math.pi), scan, SlamConfig())
+    assert found is not None
+    assert np.hypot(found[0], found[1]) < 0.15 and abs(found[2]) < math.radians(3)
+
+
 def _frames(truth: np.ndarray, odom: np.ndarray, seed: int, dt_ns: int = 10**8) -> list[Frame]:
     rng = np.random.default_rng(seed)
     return [Frame(k * dt_ns, Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))

@@ -229,7 +229,8 @@ def test_a_scan_only_bag_runs_lidar_only_and_any_log_can(tmp_path: Path, capsys:
     assert summary["lidar_only"] and summary["unknown_motion_scans"] == len(frames) - 1
     est = read_tum(out / "trajectory.tum").poses
     moved = compose(truth[0], relative(est[0], est))  # from the true start: a log without odometry has no frame
-    assert np.hypot(*(moved[:, :2] - truth[:, :2]).T).max() < 0.1
+    # along the 8 m drive the walls pin the robot's motion to within 1-2 % (the room's far walls, seen end-on)
+    assert np.hypot(*(moved[:, :2] - truth[:, :2]).T).max() < 0.15
     clf = tmp_path / "corridor.clf"  # a log with odometry, run with it ignored
     _write_clf(clf)
     ignored = tmp_path / "ignored"
