@@ -262,6 +262,7 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "disagreement, ratio": ("mcn", None, {"gain": "disagreement"}, {}),
     "observed (no prediction), ratio": ("mcn", None, {"gain": "observed"}, {}),
     "frontier, goal re-chosen every step": ("frontier", None, {}, {"commit_m": 0.0}),
+    "unknown, ratio, finished pockets twice": ("mcn", None, {"gain": "unknown", "finish_share": 0.9}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and
 ExploreConfig fields over the defaults).  ``--study-models`` adds ``unknown, ratio`` and ``disagreement, ratio``
@@ -283,7 +284,11 @@ def main() -> None:
     ap.add_argument("--study-models", nargs="*", default=[], help="further models the study compares")
     ap.add_argument("--data", default=None, help="shared data folder (default $MCNKIT_SHARED_DATA or ../shared/data)")
     ap.add_argument("--json", type=Path, default=None, help="output JSON (default results/explore[_study].json)")
+    ap.add_argument("--gain", action="append", default=[], metavar="FIELD=VALUE",
+                    help="a GainConfig field of the mcn runs, e.g. --gain finish_share=0.9 (repeatable; default: none, "
+                         "the defaults)")
     args = ap.parse_args()
+    mcn_gain = _gain_options(ap, args.gain)
     t_start = time.perf_counter()
     from mcnkit.datasets.houseexpo import houseexpo_source
 
@@ -308,7 +313,8 @@ def main() -> None:
         specs = [(f"houseexpo:{i}", "houseexpo-test") for i in ids]
         specs += [(f"procedural:{s}", "procedural") for s in range(1, args.procedural + 1)]
         for k, (spec, domain) in enumerate(specs):
-            tasks += [Task(spec, domain, p, k, args.model, explore=explore) for p in ("frontier", "mcn")]
+            tasks += [Task(spec, domain, p, k, args.model, gain=mcn_gain if p == "mcn" else {}, explore=explore)
+                      for p in ("frontier", "mcn")]
     rows: list[dict[str, Any]] = []
     if args.jobs > 1:
         import multiprocessing
@@ -321,7 +327,7 @@ def main() -> None:
         for task in tasks:
             rows.append(run_task(task))
             _print_row(rows[-1])
-    results: dict[str, Any] = {"benchmark": "bench_explore", "model": args.model, "explore": explore,
+    results: dict[str, Any] = {"benchmark": "bench_explore", "model": args.model, "explore": explore, "gain": mcn_gain,
                                "study": args.study, "wall_s": None, "domains": {}}
     for domain in sorted({r["domain"] for r in rows}):
         sel = [r for r in rows if r["domain"] == domain]
@@ -350,6 +356,31 @@ def window_table(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
     return {f"{m:g}": {"iou_free_unknown": float(np.nanmean(values[:, 2 * j])),
                        "unseen_share_in_window": float(np.nanmean(values[:, 2 * j + 1])), "steps": len(values)}
             for j, m in enumerate(margins)}
+
+
+def _gain_options(ap: argparse.ArgumentParser, items: list[str]) -> dict[str, Any]:
+    """``FIELD=VALUE`` strings as GainConfig fields (values typed like the defaults); an unknown field or a value
+    that does not parse ends with an error naming ``--gain``."""
+    from dataclasses import fields
+
+    from mcnkit.explore.config import GainConfig
+
+    types = {f.name: type(getattr(GainConfig(), f.name)) for f in fields(GainConfig)}
+    out: dict[str, Any] = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        if name not in types or not value:
+            ap.error(f"--gain {item}: expected FIELD=VALUE with FIELD one of {', '.join(sorted(types))}")
+        kind = types[name]
+        try:
+            out[name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
+        except ValueError:
+            ap.error(f"--gain {item}: {value!r} is not a {kind.__name__}")
+    try:
+        GainConfig(**out)
+    except ValueError as err:
+        ap.error(f"--gain: {err}")
+    return out
 
 
 def _print_row(r: dict[str, Any]) -> None:

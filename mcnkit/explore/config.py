@@ -100,10 +100,17 @@ class GainConfig:
     commit: bool = False
     """Keep the goal until it is reached, as the frontier planner does (ExploreConfig.commit_m); off: choose the best
     score afresh at every planning step."""
+    finish_share: float = 0.0
+    """When positive, a pocket of a sample (unknown space its walls close off, not cut by the window's edge: a
+    closet, a room behind a door) that a scan from the viewpoint would see at least this share of counts its whole
+    area once more in that sample's gain: seen now it is done, left for later it costs a return trip.  0: no such
+    bonus (see docs/exploration.md for what it measured)."""
 
     def __post_init__(self) -> None:
         if self.samples < 1 or self.beams < 4:
             raise ValueError(f"samples must be >= 1 and beams >= 4: {self}")
+        if not 0 <= self.finish_share <= 1:
+            raise ValueError(f"finish_share must be in [0, 1], got {self.finish_share}")
         if self.gain not in ("unknown", "disagreement", "observed") or self.tradeoff not in ("ratio", "exp"):
             raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
         if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:

@@ -11,6 +11,12 @@ it sees, averaged over the samples; the weights (:func:`cell_weights`) are
 * ``observed``: the unknown area again, but seen through the SLAM map's own known walls (unknown space
   transparent): the information gain without any prediction, to measure what the samples add.
 
+Seen now or seen later is not the same for every cell: a *pocket* of a sample, unknown space that the sample's
+walls close off (a closet, a room behind a door), that one scan from the viewpoint would nearly finish needs no
+return trip when seen now, and a trip back from wherever the robot is when left.  :func:`finished_pockets` counts
+the area of such pockets once more (``GainConfig.finish_share``), so a predicted closet next to the robot is not
+left behind for a larger but farther view, the return trips that lengthen greedy exploration.
+
 The gain is traded against the path cost (:func:`trade_off`): ``gain / (cost + floor)`` (MapEx divides by the
 distance) or ``gain · exp(−λ · cost)``.
 
@@ -25,11 +31,12 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from mcnkit.explore.rays import cast_visibility
 from mcnkit.types import OCCUPIED, UNKNOWN
 
-__all__ = ["cell_weights", "sample_walls", "trade_off", "visible_gains", "visible_mask"]
+__all__ = ["cell_weights", "finished_pockets", "sample_walls", "trade_off", "visible_gains", "visible_mask"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -53,6 +60,36 @@ def visible_mask(walls: BoolArray, origin_xy_cells: NDArray[np.floating], n_beam
     mask = np.zeros(np.shape(walls), np.bool_)
     cast_visibility(np.asarray(walls)[None], None, origin_xy_cells, n_beams, range_cells, _START_CELLS, mask)
     return mask
+
+
+def finished_pockets(samples: NDArray[np.floating], partial: NDArray[np.floating], origins_xy_cells: NDArray[np.floating],
+                     n_beams: int, range_cells: float, cell_area_m2: float, share: float) -> F64:
+    """(V, K): for every origin (V, 2) ``[col, row]`` and sample (K, H, W), the area [m²] of the sample's pockets a
+    scan from there would see at least ``share`` of.  A pocket is a 4-connected region of cells unknown in
+    ``partial`` and not occupied in the sample that does not touch the window's edge (beyond it the house may go
+    on); its cells are seen through the sample's own walls (:func:`visible_mask`)."""
+    partial = np.asarray(partial)
+    samples = np.asarray(samples)
+    origins = np.asarray(origins_xy_cells, np.float64).reshape(-1, 2)
+    out = np.zeros((len(origins), len(samples)))
+    if share <= 0 or len(origins) == 0:
+        return out
+    unknown = partial == UNKNOWN
+    for k, sample in enumerate(samples):
+        walls = sample == OCCUPIED
+        labels, n = ndimage.label(unknown & ~walls)
+        if n == 0:
+            continue
+        sizes = np.bincount(labels.ravel(), minlength=n + 1)
+        closed = np.ones(n + 1, np.bool_)
+        closed[0] = False
+        closed[np.unique(np.r_[labels[0], labels[-1], labels[:, 0], labels[:, -1]])] = False
+        if not closed.any():
+            continue
+        for v, origin in enumerate(origins):
+            seen = np.bincount(labels[visible_mask(walls, origin, n_beams, range_cells)], minlength=n + 1)
+            out[v, k] = float(sizes[closed & (seen >= share * sizes)].sum()) * cell_area_m2
+    return out
 
 
 def sample_walls(samples: NDArray[np.floating], partial: NDArray[np.floating], kind: str) -> BoolArray:

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from mcnkit.explore.config import ExploreConfig, GainConfig
 from mcnkit.explore.frontiers import Frontiers, Viewpoints, find_frontiers, planning_map, viewpoints
-from mcnkit.explore.gain import cell_weights, sample_walls, trade_off, visible_gains
+from mcnkit.explore.gain import cell_weights, finished_pockets, sample_walls, trade_off, visible_gains
 from mcnkit.explore.paths import CostField, cost_field
 from mcnkit.slam.lineage import LineageMap
 from mcnkit.types import GridSpec
@@ -122,7 +122,12 @@ class McnPlanner:
                             (points.xy_m[:, 1] - w.origin_y_m) / w.resolution_m], 1)
         walls = sample_walls(pred.samples, pred.partial, cfg.gain)
         weight = cell_weights(pred.samples, pred.partial, w.resolution_m**2, cfg.gain)
-        gain = visible_gains(walls, weight, origins, cfg.beams, self.range_m / w.resolution_m).mean(axis=1)
+        range_cells = self.range_m / w.resolution_m
+        per_sample = visible_gains(walls, weight, origins, cfg.beams, range_cells)
+        if cfg.finish_share > 0:  # pockets a visit finishes count once more (see mcnkit.explore.gain)
+            per_sample = per_sample + finished_pockets(pred.samples, pred.partial, origins, cfg.beams, range_cells,
+                                                       w.resolution_m**2, cfg.finish_share)
+        gain = per_sample.mean(axis=1)
         return gain, trade_off(gain, points.cost_m, cfg.tradeoff, cfg.cost_lambda_per_m, cfg.cost_floor_m), pred
 
 

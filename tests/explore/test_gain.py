@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mcnkit.explore.gain import cell_weights, sample_walls, trade_off, visible_gains, visible_mask
+from mcnkit.explore.gain import cell_weights, finished_pockets, sample_walls, trade_off, visible_gains, visible_mask
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
 
@@ -50,3 +50,35 @@ def test_trade_offs() -> None:
     np.testing.assert_allclose(trade_off(gain, cost, "exp", 0.5, 1.0), 10.0 * np.exp(-0.5 * cost) * [1, 1, 2])
     with pytest.raises(ValueError, match="trade-off"):
         trade_off(gain, cost, "bogus", 0.3, 1.0)
+
+
+def _closet_plan() -> tuple[np.ndarray, np.ndarray]:
+    """A 20 × 20 window: the robot's known hall on the left (columns 0-9) and its mapped wall (column 10) with two
+    doors; in the one sample a closet (rows 2-5, columns 11-14) behind the door at row 4, and the rest of the house
+    behind the door at row 12, running out of the window on the right."""
+    partial = np.full((20, 20), UNKNOWN, np.float32)
+    partial[:, :10] = FREE
+    sample = np.full((20, 20), FREE, np.float32)
+    sample[:, 10] = OCCUPIED
+    sample[4, 10] = FREE  # the closet's door
+    sample[12, 10] = FREE  # the door to the rest of the house
+    sample[1, 10:16] = OCCUPIED
+    sample[6, 10:16] = OCCUPIED
+    sample[1:7, 15] = OCCUPIED  # the closet: rows 2-5, columns 11-14
+    partial[:, 10] = sample[:, 10]  # the wall and its two doors are mapped
+    return sample[None], partial
+
+
+def test_a_pocket_a_scan_would_finish_counts_again_and_the_open_house_does_not() -> None:
+    sample, partial = _closet_plan()
+    at_door = np.array([[10.5, 4.5]])  # in the closet's door
+    far = np.array([[1.5, 17.5]])  # across the hall: the closet's door is a slit from there
+    bonus = finished_pockets(sample, partial, np.r_[at_door, far], 720, 30.0, 0.25, share=0.9)
+    assert bonus.shape == (2, 1)
+    assert bonus[0, 0] == pytest.approx(16 * 0.25)  # the closet's 4 × 4 cells, all seen from its door
+    assert bonus[1, 0] == 0.0  # too little of it seen from there to be done with it
+    # the rest of the house runs out of the window: however much of it a scan sees, it is never finished
+    in_house_door = finished_pockets(sample, partial, np.array([[10.5, 12.5]]), 720, 30.0, 0.25, share=0.01)
+    assert in_house_door[0, 0] == 0.0
+    assert not finished_pockets(sample, partial, at_door, 720, 30.0, 0.25, share=0.0).any()  # 0: no bonus
+
