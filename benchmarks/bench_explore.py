@@ -22,6 +22,7 @@ planning step (mean, 95th percentile, max) and the wall time.  Writes ``benchmar
 
     .venv/bin/python -m benchmarks.bench_explore [--houses 50] [--procedural 20] [--model NAME|PATH] [--jobs N]
     .venv/bin/python -m benchmarks.bench_explore --study [--study-houses 12]
+    .venv/bin/python -m benchmarks.bench_explore --gain finish_share=0.9 --json /tmp/explore_pockets.json
 """
 
 from __future__ import annotations
@@ -288,6 +289,8 @@ def main() -> None:
                     help="a GainConfig field of the mcn runs, e.g. --gain finish_share=0.9 (repeatable; default: none, "
                          "the defaults)")
     args = ap.parse_args()
+    if args.gain and args.study:
+        ap.error("--gain sets the mcn runs of the test benchmark; a --study's variants set their own (STUDY_VARIANTS)")
     mcn_gain = _gain_options(ap, args.gain)
     t_start = time.perf_counter()
     from mcnkit.datasets.houseexpo import houseexpo_source

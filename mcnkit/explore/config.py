@@ -104,7 +104,7 @@ class GainConfig:
     """When positive, a pocket of a sample (unknown space its walls close off, not cut by the window's edge: a
     closet, a room behind a door) that a scan from the viewpoint would see at least this share of counts its whole
     area once more in that sample's gain: seen now it is done, left for later it costs a return trip.  0: no such
-    bonus (see docs/exploration.md for what it measured)."""
+    bonus."""
 
     def __post_init__(self) -> None:
         if self.samples < 1 or self.beams < 4:

@@ -81,4 +81,3 @@ def test_a_pocket_a_scan_would_finish_counts_again_and_the_open_house_does_not()
     in_house_door = finished_pockets(sample, partial, np.array([[10.5, 12.5]]), 720, 30.0, 0.25, share=0.01)
     assert in_house_door[0, 0] == 0.0
     assert not finished_pockets(sample, partial, at_door, 720, 30.0, 0.25, share=0.0).any()  # 0: no bonus
-
