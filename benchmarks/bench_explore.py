@@ -21,7 +21,7 @@ planning step (mean, 95th percentile, max) and the wall time.  Writes ``benchmar
 ``explore_study.json``) and a plot of the mean coverage against path length (``explore_coverage.png``).
 
     .venv/bin/python -m benchmarks.bench_explore [--houses 50] [--procedural 20] [--model NAME|PATH] [--jobs N]
-    .venv/bin/python -m benchmarks.bench_explore --study [--study-houses 12]
+    .venv/bin/python -m benchmarks.bench_explore --study [--study-houses 12] [--variants NAME ...]
     .venv/bin/python -m benchmarks.bench_explore --gain finish_share=0.9 --json /tmp/explore_pockets.json
 """
 
@@ -264,6 +264,7 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "observed (no prediction), ratio": ("mcn", None, {"gain": "observed"}, {}),
     "frontier, goal re-chosen every step": ("frontier", None, {}, {"commit_m": 0.0}),
     "unknown, ratio, finished pockets twice": ("mcn", None, {"gain": "unknown", "finish_share": 0.9}, {}),
+    "consensus walls, ratio": ("mcn", None, {"gain": "consensus"}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and
 ExploreConfig fields over the defaults).  ``--study-models`` adds ``unknown, ratio`` and ``disagreement, ratio``
@@ -283,12 +284,17 @@ def main() -> None:
     ap.add_argument("--study", action="store_true", help="the scoring variants on unused training-list houses")
     ap.add_argument("--study-houses", type=int, default=6, help="houses of the study")
     ap.add_argument("--study-models", nargs="*", default=[], help="further models the study compares")
+    ap.add_argument("--variants", nargs="+", default=None, metavar="NAME",
+                    help="the study's variants to run, by name (default: all of STUDY_VARIANTS); the frontier "
+                         "baseline always runs")
     ap.add_argument("--data", default=None, help="shared data folder (default $MCNKIT_SHARED_DATA or ../shared/data)")
     ap.add_argument("--json", type=Path, default=None, help="output JSON (default results/explore[_study].json)")
     ap.add_argument("--gain", action="append", default=[], metavar="FIELD=VALUE",
                     help="a GainConfig field of the mcn runs, e.g. --gain finish_share=0.9 (repeatable; default: none, "
                          "the defaults)")
     args = ap.parse_args()
+    if args.variants and not args.study:
+        ap.error("--variants chooses among the --study's variants; the test benchmark runs frontier and mcn")
     if args.gain and args.study:
         ap.error("--gain sets the mcn runs of the test benchmark; a --study's variants set their own (STUDY_VARIANTS)")
     mcn_gain = _gain_options(ap, args.gain)
@@ -304,6 +310,12 @@ def main() -> None:
         tag = Path(model).name
         variants |= {f"{tag}: unknown, ratio": ("mcn", model, {"gain": "unknown"}, {}),
                      f"{tag}: disagreement, ratio": ("mcn", model, {"gain": "disagreement"}, {})}
+    if args.variants:
+        unknown_names = [v for v in args.variants if v not in variants]
+        if unknown_names:
+            ap.error(f"--variants {' '.join(unknown_names)!r}: not a variant; the variants are "
+                     + "; ".join(repr(v) for v in variants))
+        variants = {v: variants[v] for v in args.variants}
     if args.study:
         ids = study_house_ids(source, shared / "houseexpo", args.study_houses)
         for k, i in enumerate(ids):

@@ -52,6 +52,10 @@ class ExploreConfig:
     the robot could not get to, are dropped for the rest of the run [m]."""
     stuck_s: float = 8.0
     """A goal the robot gets no closer to for this long is dropped [s]."""
+    contact_keep_s: float = 60.0
+    """Where the robot touched a wall (a move refused: its map put the wall elsewhere, or missed it), the contact
+    point is an obstacle on the planning map for this long, as a bumper's in a costmap, so the next path goes around
+    it instead of into it again [s]; 0: contacts are not marked."""
     coverage_rays: int = 1440
     """Rays over 360° that measure what the sensor saw (the coverage), finer than the lidar's beams."""
     coverage_lattice_m: float = 0.5
@@ -60,8 +64,10 @@ class ExploreConfig:
 
     def __post_init__(self) -> None:
         if not (self.budget_m > 0 and self.replan_m > 0 and self.plan_resolution_m > 0 and self.segment_m > 0
-                and self.plan_margin_m >= 0 and self.plan_max_cells > 0 and self.commit_m >= 0):
-            raise ValueError(f"budget, replan distance, planning resolution and segment must be positive: {self}")
+                and self.plan_margin_m >= 0 and self.plan_max_cells > 0 and self.commit_m >= 0
+                and self.contact_keep_s >= 0):
+            raise ValueError(f"budget, replan distance, planning resolution and segment must be positive, margins, "
+                             f"commit distance and contact_keep_s not negative: {self}")
         if not 0 < self.stop_coverage <= 1:
             raise ValueError(f"stop_coverage must be in (0, 1], got {self.stop_coverage}")
         if self.coverage_rays < 4 or self.coverage_lattice_m <= 0:
@@ -75,11 +81,12 @@ class GainConfig:
 
     samples: int = 8
     """K completions drawn at every planning step."""
-    gain: Literal["unknown", "disagreement", "observed"] = "unknown"
+    gain: Literal["unknown", "disagreement", "observed", "consensus"] = "unknown"
     """``unknown``: the area unknown in the SLAM map that a scan from the viewpoint would see, ray-cast through each
     sample's own walls, averaged over the samples; ``disagreement``: the same cells weighted by how much the
     samples disagree on them (4·p·(1−p), p the share of samples that say occupied); ``observed``: no prediction,
-    the unknown area seen through the SLAM map's known walls only (unknown space counted transparent)."""
+    the unknown area seen through the SLAM map's known walls only (unknown space counted transparent);
+    ``consensus``: the unknown area seen through the walls at least half the samples draw."""
     tradeoff: Literal["ratio", "exp"] = "ratio"
     """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost)."""
     cost_lambda_per_m: float = 0.3
@@ -111,7 +118,7 @@ class GainConfig:
             raise ValueError(f"samples must be >= 1 and beams >= 4: {self}")
         if not 0 <= self.finish_share <= 1:
             raise ValueError(f"finish_share must be in [0, 1], got {self.finish_share}")
-        if self.gain not in ("unknown", "disagreement", "observed") or self.tradeoff not in ("ratio", "exp"):
+        if self.gain not in ("unknown", "disagreement", "observed", "consensus") or self.tradeoff not in ("ratio", "exp"):
             raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
         if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:
             raise ValueError(f"cost_lambda_per_m and window_margin_m must be >= 0, cost_floor_m > 0: {self}")

@@ -9,7 +9,9 @@ it sees, averaged over the samples; the weights (:func:`cell_weights`) are
 * ``disagreement``: that area times 4·p·(1 − p), p the share of samples occupied there (MapEx's variance weighting:
   cells the samples agree on count little);
 * ``observed``: the unknown area again, but seen through the SLAM map's own known walls (unknown space
-  transparent): the information gain without any prediction, to measure what the samples add.
+  transparent): the information gain without any prediction, to measure what the samples add;
+* ``consensus``: the unknown area seen through the walls that at least half the samples draw (the mean completion's
+  walls, as MapEx casts its rays): a wall one sample imagines alone does not hide what lies behind it.
 
 Seen now or seen later is not the same for every cell: a *pocket* of a sample, unknown space that the sample's
 walls close off (a closet, a room behind a door), that one scan from the viewpoint would nearly finish needs no
@@ -93,10 +95,12 @@ def finished_pockets(samples: NDArray[np.floating], partial: NDArray[np.floating
 
 
 def sample_walls(samples: NDArray[np.floating], partial: NDArray[np.floating], kind: str) -> BoolArray:
-    """The walls (K, H, W) the visibility is cast through: each sample's occupied cells, or (``observed``) the
-    SLAM map's own occupied cells only (K = 1)."""
+    """The walls (K, H, W) the visibility is cast through: each sample's occupied cells, or (K = 1) the SLAM map's
+    own occupied cells only (``observed``) or the cells at least half the samples say are occupied (``consensus``)."""
     if kind == "observed":
         return (np.asarray(partial) == OCCUPIED)[None]
+    if kind == "consensus":
+        return ((np.asarray(samples) == OCCUPIED).mean(axis=0) >= 0.5)[None]
     return np.asarray(samples) == OCCUPIED
 
 
@@ -104,7 +108,7 @@ def cell_weights(samples: NDArray[np.floating], partial: NDArray[np.floating], c
                  kind: str) -> F64:
     """What seeing each cell (H, W) is worth (see the module docstring) [m²]."""
     unknown = np.asarray(partial) == UNKNOWN
-    if kind in ("unknown", "observed"):
+    if kind in ("unknown", "observed", "consensus"):
         return unknown * float(cell_area_m2)
     if kind == "disagreement":
         p = (np.asarray(samples) == OCCUPIED).mean(axis=0)

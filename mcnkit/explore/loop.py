@@ -10,7 +10,9 @@ odometry) in a plan at a random safe pose and runs, per frame (``1 / scan_rate_h
    but for one thing: a beam that returned nothing saw free space out to the sensor's range (the SLAM skips such
    beams; a robot looking down a long corridor would otherwise never know it can go there);
 2. one frame of carrot following along the path from the estimated pose; the same commands move the true pose
-   (a move that would put the robot's disc into a wall of the ground truth is not made: a collision, then a replan);
+   (a move that would put the robot's disc into a wall of the ground truth is not made: a collision, then a replan
+   on a map that holds the contact point for ``contact_keep_s``, placed in the robot's estimated frame where its
+   bumper felt the wall, so a map that draws a wall a little off does not wedge the robot against it);
 3. the odometry measures the true motion with the simulator's noise, the lidar scans from the true pose;
 4. FastSLAM steps on that frame; the coverage (:mod:`mcnkit.explore.coverage`) is updated from the true pose.
 
@@ -36,9 +38,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from mcnkit.explore.config import ExploreConfig
 from mcnkit.explore.coverage import mark_seen, reachable_free
+from mcnkit.explore.paths import mark_contacts
 from mcnkit.explore.planners import Decision, Planner, decide, planning_view
 from mcnkit.geometry import compose, relative
 from mcnkit.sim import (
@@ -62,10 +66,17 @@ from mcnkit.types import Frame, Pose2D, Scan
 __all__ = ["EXPLORE_SLAM", "Explorer", "FrameRecord", "PlanStep", "planning_lineage", "seed_streams"]
 
 F64 = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 
 EXPLORE_SLAM = SlamConfig(updates=UpdatesConfig(linear_m=0.3, angular_rad=0.3))
 """The SLAM of an exploring robot: a filter update (and so a map that shows the last scan) every 0.3 m or 0.3 rad,
 so a planning step sees what the robot saw where it stands."""
+
+
+_CAREFUL_M = 1.0
+_CAREFUL_LOOKAHEAD_M = 0.1
+"""After a collision the robot follows its next path with this lookahead for ``_CAREFUL_M`` of driving: the carrot
+0.4 m ahead cuts corners, which a map whose walls sit a little off does not leave room for."""
 
 
 def seed_streams(seed: int) -> tuple[np.random.Generator, np.random.Generator, int]:
@@ -146,10 +157,19 @@ class Explorer:
     sim: SimConfig = field(default_factory=SimConfig)
     slam_config: SlamConfig = EXPLORE_SLAM
     seed: int = 0
+    low_obstacles: BoolArray | None = None
+    """(H, W) cells of ``raster`` the robot cannot drive into but its lidar does not see (below the scan plane: a
+    step, a low table, a chair's legs); None: none."""
 
     def __post_init__(self) -> None:
         self.rng, slam_rng, self.sampler_seed = seed_streams(self.seed)
-        safe, self._clearance = safe_region(self.raster, self.sim)
+        safe, _ = safe_region(self.raster, self.sim)
+        self._body_free = self.raster.free if self.low_obstacles is None else self.raster.free & ~self.low_obstacles
+        """Where the robot's body can be (its collisions), as opposed to what the lidar sees (``raster.free``)."""
+        self._clearance = ndimage.distance_transform_edt(self._body_free) * self.raster.grid.resolution_m
+        safe &= self._clearance > self.sim.robot_radius_m + self.sim.margin_m
+        if not safe.any():
+            raise ValueError(f"{self.raster.name}: its low obstacles leave no place wide enough for the robot")
         # the reachable space: what the planner's clearance lets the robot get to (its start lies inside)
         reach_safe = safe_region(self.raster, replace(self.sim, margin_m=self.config.plan_margin_m))[0]
         cells = np.flatnonzero(safe)
@@ -169,6 +189,9 @@ class Explorer:
         self.path_length_m = 0.0
         self.n_frames = 0
         self.n_collisions = 0
+        self.contacts: list[tuple[int, F64]] = []
+        """(frame, point [m] in the estimated frame) of every collision: where the robot felt a wall."""
+        self._wall_index: NDArray[np.intp] | None = None
         self.blacklist: list[F64] = []
         self.plans: list[PlanStep] = []
         """Every planning step in brief (its CPU time, goal, gain and cost)."""
@@ -182,6 +205,7 @@ class Explorer:
         self._path: F64 | None = None
         self._carrot = 0
         self._since_plan_m = 0.0
+        self._careful_m = 0.0
         self._goal: _Goal | None = None
         self._cpu_s = 0.0
         self.records: list[FrameRecord] = []
@@ -266,6 +290,10 @@ class Explorer:
             self._planning_ranges.append(np.where(np.isfinite(r), r, np.float32(self._no_return_m)))
         self.lineage.sync(self.slam.update_poses(), self._planning_ranges)
         view = planning_view(self.lineage, self.estimate, self.config.plan_resolution_m, self.config.plan_max_cells)
+        keep_frames = self.config.contact_keep_s * self.sim.scan_rate_hz
+        felt = [xy for frame, xy in self.contacts if self.n_frames - frame <= keep_frames]
+        if felt:
+            view = replace(view, image=mark_contacts(view.image, view.grid, np.array(felt)))
         black = np.asarray(self.blacklist).reshape(-1, 2)
         d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black, goal_xy_m)
         return replace(d, cpu_s=time.process_time() - t0)
@@ -273,19 +301,24 @@ class Explorer:
     def _move(self) -> None:
         assert self._path is not None
         h = 1.0 / self.sim.scan_rate_hz / 5
-        _, self._carrot, commands = follow_step(self.estimate, self._path, self._carrot, self.sim)
+        # after a collision the next metre is driven along the path itself, not cutting its corners
+        sim = self.sim if self._careful_m <= 0 else replace(self.sim, lookahead_m=_CAREFUL_LOOKAHEAD_M)
+        _, self._carrot, commands = follow_step(self.estimate, self._path, self._carrot, sim)
         truth = self.truth
         for v, w in commands:
             truth = drive(truth, v, w, h)
         rc = self.raster.grid.world_to_cell(truth[:2])
         inside = self.raster.grid.contains(rc)
         if not inside or self._clearance[rc[0], rc[1]] < self.sim.robot_radius_m:
-            self.n_collisions += 1  # the robot stops short of the wall and plans again
-            truth = self.truth.copy()
+            self.n_collisions += 1  # the robot stops short of the wall, backs off and plans again
+            self.contacts.append((self.n_frames, self._contact(truth)))
+            truth = self._back_off()
             self._path = None
+            self._careful_m = _CAREFUL_M
         step = relative(self.truth, truth)
         moved = float(np.hypot(step[0], step[1]))
         self.path_length_m += moved
+        self._careful_m -= moved
         self._since_plan_m += moved
         normals = self.rng.standard_normal((3, 1))
         self.odom = integrate_odometry(self.odom, *noisy_motion(step[None], normals, self._bias, self.sim.odometry))[-1]
@@ -296,6 +329,30 @@ class Explorer:
                 self._goal.best_dist_m, self._goal.since_progress_s = dist, 0.0
             else:
                 self._goal.since_progress_s += 1.0 / self.sim.scan_rate_hz
+
+    def _back_off(self) -> F64:
+        """The true pose after a frame of reversing at half speed (a bumper's recovery: the same plan from the same
+        pose would drive into the same wall again); the pose unchanged where reversing brings no wall farther."""
+        back = drive(self.truth, -0.5 * self.sim.speed_m_s, 0.0, 1.0 / self.sim.scan_rate_hz)
+        grid = self.raster.grid
+        now, to = grid.world_to_cell(self.truth[:2]), grid.world_to_cell(back[:2])
+        if grid.contains(to) and grid.contains(now) and self._clearance[to[0], to[1]] >= max(
+                self.sim.robot_radius_m, self._clearance[now[0], now[1]]):
+            return back
+        return self.truth.copy()
+
+    def _contact(self, blocked: F64) -> F64:
+        """Where the robot, trying to move to the true pose ``blocked``, touches the wall (the nearest wall cell of
+        the ground truth, as its bumper feels it: on its body), in its estimated frame [m]."""
+        if self._wall_index is None:
+            self._wall_index = ndimage.distance_transform_edt(self._body_free, return_distances=False,
+                                                              return_indices=True)
+        grid = self.raster.grid
+        rc = np.clip(grid.world_to_cell(blocked[:2]), 0, np.array(grid.shape) - 1)
+        wall = grid.cell_to_world(self._wall_index[:, rc[0], rc[1]])
+        on_body = relative(blocked, np.array([wall[0], wall[1], 0.0]))
+        moved = relative(self.truth, blocked)
+        return compose(compose(self.estimate, moved), on_body)[:2]
 
     def _sense(self) -> None:
         laser = compose(self.truth, self._mount)

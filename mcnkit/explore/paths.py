@@ -23,7 +23,7 @@ from skimage.graph import MCP_Geometric
 
 from mcnkit.types import FREE, OCCUPIED, GridSpec
 
-__all__ = ["CostField", "cost_field", "traversable_cells"]
+__all__ = ["CostField", "cost_field", "mark_contacts", "traversable_cells"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -32,6 +32,19 @@ BoolArray = NDArray[np.bool_]
 _SNAP_M = 0.6
 """A robot that stands on a cell that is not traversable (it drifted close to a wall) starts its paths from the
 nearest traversable cell within this distance."""
+
+
+def mark_contacts(image: NDArray[np.floating], grid: GridSpec, contacts_xy_m: F64) -> NDArray[np.floating]:
+    """``image`` (H, W) with the cells of ``contacts_xy_m`` (N, 2) made occupied: where the robot touched a wall its
+    map does not show (a bumper's obstacles in a costmap), so paths keep the robot's radius from them."""
+    contacts = np.asarray(contacts_xy_m, np.float64).reshape(-1, 2)
+    if len(contacts) == 0:
+        return image
+    rc = grid.world_to_cell(contacts)
+    rc = rc[grid.contains(rc)]
+    out = np.array(image, copy=True)
+    out[rc[:, 0], rc[:, 1]] = OCCUPIED
+    return out
 
 
 def traversable_cells(image: NDArray[np.floating], resolution_m: float, robot_radius_m: float,

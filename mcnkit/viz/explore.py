@@ -11,6 +11,7 @@ the path length).  Entities, in metres in the map frame (``/world`` flips y so +
 | ``/world/map/estimate`` | the planning map (the best particle's SLAM map), at every planning step |
 | ``/world/robot/estimate``, ``/world/robot/truth`` | estimated and true pose (arrows); ``…/trajectory`` their paths |
 | ``/world/scan/hits`` | the scan, seen from the estimated pose |
+| ``/world/robot/contacts`` | where the robot touched a wall (a refused move), in its estimated frame, from that frame on |
 | ``/world/plan/frontiers`` | frontier cells, coloured by their segment's score (yellow best, purple worst) |
 | ``/world/plan/viewpoints`` | one per segment, labelled with its gain, path cost and score |
 | ``/world/plan/goal``, ``/world/plan/path`` | the chosen viewpoint and the path to it |
@@ -93,6 +94,7 @@ class ExploreRecorder:
         self.rec.log("/metrics/plan_cpu_ms", rr.SeriesPoints(names="CPU per planning step [ms]", colors=[[150, 60, 200]],
                                                              marker_sizes=2.0), static=True)
         self._n_plans = 0
+        self._n_contacts = 0
 
     @property
     def viewer(self) -> Any:
@@ -120,6 +122,13 @@ class ExploreRecorder:
             r = scan.ranges_m[ok].astype(np.float64)
             self.rec.log("/world/scan/hits", rr.Points2D(np.stack([laser[0] + r * np.cos(a), laser[1] + r * np.sin(a)], 1)))
         self.rec.log("/metrics/coverage", rr.Scalars(record.coverage))
+        if len(ex.contacts) > self._n_contacts:
+            self._n_contacts = len(ex.contacts)
+            self.rec.log("/world/robot/contacts", rr.Points2D([xy for _, xy in ex.contacts], radii=0.06,
+                                                             colors=[[255, 0, 0]]))
+            self.rec.log("/log", rr.TextLog(f"collision {self._n_contacts}: the robot touched a wall at "
+                                            f"({ex.contacts[-1][1][0]:.2f}, {ex.contacts[-1][1][1]:.2f}) m",
+                                            level=rr.TextLogLevel.WARN))
         if record.index % _PATHS_EVERY == 0 or ex.done:
             recs = ex.records
             for name, color, pts in (("estimate", [30, 120, 230], [x.estimate[:2] for x in recs]),

@@ -40,6 +40,7 @@ def test_cell_weights() -> None:
     np.testing.assert_array_equal(cell_weights(samples, partial, 0.25, "observed"), unknown)
     assert sample_walls(samples, partial, "unknown").shape == (2, 2, 2)
     assert sample_walls(samples, partial, "observed").sum() == 0  # the map itself holds no wall
+    np.testing.assert_array_equal(cell_weights(samples, partial, 0.25, "consensus"), unknown)
     with pytest.raises(ValueError, match="unknown gain"):
         cell_weights(samples, partial, 1.0, "bogus")
 
@@ -81,3 +82,18 @@ def test_a_pocket_a_scan_would_finish_counts_again_and_the_open_house_does_not()
     in_house_door = finished_pockets(sample, partial, np.array([[10.5, 12.5]]), 720, 30.0, 0.25, share=0.01)
     assert in_house_door[0, 0] == 0.0
     assert not finished_pockets(sample, partial, at_door, 720, 30.0, 0.25, share=0.0).any()  # 0: no bonus
+
+
+def test_a_wall_only_one_sample_draws_does_not_hide_the_room_behind_it() -> None:
+    samples = np.full((4, 10, 10), FREE, np.float32)
+    samples[0, :, 6] = OCCUPIED  # one sample of four walls the room off at column 6
+    samples[:3, :, 8] = OCCUPIED  # three of four put a wall at column 8
+    partial = np.full((10, 10), UNKNOWN, np.float32)
+    walls = sample_walls(samples, partial, "consensus")
+    assert walls.shape == (1, 10, 10) and walls[0, :, 8].all() and walls.sum() == 10
+    weight = cell_weights(samples, partial, 1.0, "consensus")
+    origin = np.array([[2.5, 5.5]])
+    seen = visible_gains(walls, weight, origin, 720, 30.0)[0, 0]
+    assert seen == 90  # columns 0-8: the lone wall at 6 hides nothing
+    each = visible_gains(sample_walls(samples, partial, "unknown"), weight, origin, 720, 30.0)[0]
+    np.testing.assert_array_equal(each, [70, 90, 90, 100])  # one sample at a time: one hides columns 7-9

@@ -1,4 +1,5 @@
-"""The closed loop on two small rooms: both planners explore them, deterministically, within the budget."""
+"""The closed loop on two small rooms: both planners explore them, deterministically, within the budget; a robot that
+touches a wall its lidar does not see goes around it instead of into it again."""
 
 from __future__ import annotations
 
@@ -65,3 +66,22 @@ def test_stop_coverage(rooms: PlanRaster) -> None:
     assert ex.stop_reason == "coverage" and 0.5 <= ex.coverage < 0.97
     with pytest.raises(ValueError, match="stop_coverage"):
         ExploreConfig(stop_coverage=0.0)
+
+
+def test_a_wall_felt_but_not_seen_is_planned_around_not_driven_into(rooms: PlanRaster) -> None:
+    # the door between the rooms is barred below the lidar's plane: the robot sees the other room but cannot enter it
+    low = np.zeros_like(rooms.free)
+    low[38:62, 99:103] = True
+    ex = Explorer(rooms, FrontierPlanner(), sim=SHORT_SIGHTED, seed=2, low_obstacles=low)
+    ex.run()
+    start_x = ex.records[0].truth[0]
+    assert start_x > 4.1 and all(r.truth[0] > 4.1 for r in ex.records)  # it stayed in its room
+    assert ex.stop_reason == "explored"  # the far room's frontiers are out of reach once the bar is on the map
+    assert 1 <= ex.n_collisions <= 5 and len(ex.contacts) == ex.n_collisions
+    felt = np.array([xy for _, xy in ex.contacts])
+    assert np.all(np.abs(felt[:, 0] - 4.05) < 0.35) and np.all((felt[:, 1] > 0.7) & (felt[:, 1] < 2.3))  # at the door
+    # without the contacts on its map it tries the door until every goal behind it is given up
+    blind = Explorer(rooms, FrontierPlanner(), ExploreConfig(contact_keep_s=0.0), sim=SHORT_SIGHTED, seed=2,
+                     low_obstacles=low)
+    blind.run()
+    assert blind.n_collisions > 20 * ex.n_collisions and blind.path_length_m > 2 * ex.path_length_m

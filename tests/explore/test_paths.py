@@ -1,11 +1,12 @@
-"""Shortest paths on the known-free grid: costs, clearance, unreachable cells, the start snapped off a wall."""
+"""Shortest paths on the known-free grid: costs, clearance, unreachable cells, the start snapped off a wall, walls the
+robot touched that its map does not show."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from mcnkit.explore.paths import cost_field, traversable_cells
+from mcnkit.explore.paths import cost_field, mark_contacts, traversable_cells
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec
 
 GRID = GridSpec(0.1, 0.0, 0.0, 60, 20)
@@ -51,3 +52,17 @@ def test_start_next_to_a_wall_snaps_to_the_nearest_traversable_cell() -> None:
     assert np.hypot(field.start[0] - 1, field.start[1] - 1) * 0.1 <= 0.6
     nowhere = cost_field(np.full(GRID.shape, OCCUPIED, np.float32), GRID, np.array([1.0, 1.0]), 0.2, 0.05)
     assert nowhere.start is None and np.isinf(nowhere.cost_m).all()
+
+
+def test_a_touched_wall_blocks_the_paths_through_it() -> None:
+    image = _corridor()
+    image[1:5, 30] = OCCUPIED  # a stub leaves the corridor open from row 5 on
+    start = np.array([1.05, 1.05])
+    assert np.isfinite(cost_field(image, GRID, start, 0.2, 0.05).cost_m[10, 50])
+    # the robot felt walls across the gap at x = 3.05 m, where its map shows free space
+    contacts = np.array([[3.05, y] for y in (0.55, 0.85, 1.15, 1.45, 1.75)] + [[99.0, 99.0]])  # one off the grid
+    marked = mark_contacts(image, GRID, contacts)
+    assert (marked[5:18:3, 30] == OCCUPIED).all() and (image[5:19, 30] == FREE).all()  # the map itself is left as is
+    assert (marked != image).sum() == 5
+    assert np.isinf(cost_field(marked, GRID, start, 0.2, 0.05).cost_m[10, 50])
+    assert mark_contacts(image, GRID, np.zeros((0, 2))) is image

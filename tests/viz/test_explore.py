@@ -76,3 +76,20 @@ def test_the_stepper_shows_both_planners_and_why(rooms: PlanRaster, tmp_path: Pa
     assert len(stepper.coverage().axes) == 1
     widget = stepper.widget()
     assert len(widget.children) == 4
+
+
+def test_a_collision_is_recorded_where_the_robot_felt_the_wall(tmp_path: Path, rooms: PlanRaster) -> None:
+    low = np.zeros_like(rooms.free)
+    low[38:62, 99:103] = True  # the door barred below the lidar's plane
+    ex = Explorer(rooms, FrontierPlanner(), ExploreConfig(budget_m=6.0), seed=2, low_obstacles=low)
+    path = tmp_path / "bump.rrd"
+    rec = ExploreRecorder(path, ex, recording_id="bump")
+    while not ex.done:
+        rec.on_frame(ex.step())
+    rec.close()
+    assert ex.n_collisions > 0
+    store = RrdReader(path).stream().collect()
+    contacts = store.reader(index="step", contents="/world/robot/contacts").to_arrow_table()
+    assert contacts.num_rows == len({frame for frame, _ in ex.contacts})
+    log = store.reader(index="step", contents="/log").to_arrow_table()
+    assert sum("collision" in str(t) for t in log.column("/log:TextLog:text").to_pylist()) == ex.n_collisions
