@@ -265,6 +265,8 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "frontier, goal re-chosen every step": ("frontier", None, {}, {"commit_m": 0.0}),
     "unknown, ratio, finished pockets twice": ("mcn", None, {"gain": "unknown", "finish_share": 0.9}, {}),
     "consensus walls, ratio": ("mcn", None, {"gain": "consensus"}, {}),
+    "unknown, tour": ("mcn", None, {"gain": "unknown", "tradeoff": "tour"}, {}),
+    "observed (no prediction), tour": ("mcn", None, {"gain": "observed", "tradeoff": "tour"}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and
 ExploreConfig fields over the defaults).  ``--study-models`` adds ``unknown, ratio`` and ``disagreement, ratio``

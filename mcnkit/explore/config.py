@@ -87,13 +87,20 @@ class GainConfig:
     samples disagree on them (4·p·(1−p), p the share of samples that say occupied); ``observed``: no prediction,
     the unknown area seen through the SLAM map's known walls only (unknown space counted transparent);
     ``consensus``: the unknown area seen through the walls at least half the samples draw."""
-    tradeoff: Literal["ratio", "exp"] = "ratio"
-    """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost)."""
+    tradeoff: Literal["ratio", "exp", "tour"] = "ratio"
+    """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost);
+    ``tour``: the first stop of the shortest tour from the robot through the (at most ``tour_places`` cheapest)
+    viewpoints whose expected gain is at least ``tour_min_gain_m2`` (:mod:`mcnkit.explore.tour`)."""
     cost_lambda_per_m: float = 0.3
     """λ of the ``exp`` trade-off [1/m]."""
     cost_floor_m: float = 1.0
     """Added to the path cost of the ``ratio`` trade-off, so a frontier at the robot's feet does not win by
     dividing by zero [m]."""
+    tour_min_gain_m2: float = 1.0
+    """The ``tour`` trade-off visits the viewpoints the samples expect at least this much new area from [m²] (all of
+    them when none does)."""
+    tour_places: int = 12
+    """The ``tour`` trade-off plans through at most this many viewpoints, the cheapest to reach."""
     window_margin_m: float = 2.0
     """The network's window: the SLAM map's seen bounds plus this margin, padded square (the nets were trained on
     whole houses filling the window; the margin leaves room for the part not seen yet) [m]."""
@@ -114,11 +121,11 @@ class GainConfig:
     bonus."""
 
     def __post_init__(self) -> None:
-        if self.samples < 1 or self.beams < 4:
-            raise ValueError(f"samples must be >= 1 and beams >= 4: {self}")
+        if self.samples < 1 or self.beams < 4 or self.tour_places < 1 or self.tour_min_gain_m2 < 0:
+            raise ValueError(f"samples and tour_places must be >= 1, beams >= 4, tour_min_gain_m2 >= 0: {self}")
         if not 0 <= self.finish_share <= 1:
             raise ValueError(f"finish_share must be in [0, 1], got {self.finish_share}")
-        if self.gain not in ("unknown", "disagreement", "observed", "consensus") or self.tradeoff not in ("ratio", "exp"):
+        if self.gain not in ("unknown", "disagreement", "observed", "consensus") or self.tradeoff not in ("ratio", "exp", "tour"):
             raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
         if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:
             raise ValueError(f"cost_lambda_per_m and window_margin_m must be >= 0, cost_floor_m > 0: {self}")

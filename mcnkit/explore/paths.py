@@ -67,6 +67,7 @@ class CostField:
     start: tuple[int, int] | None
     """The start cell (row, col); None when no traversable cell is near the robot."""
     _mcp: MCP_Geometric | None
+    _step: F64 | None = None
 
     def path_to(self, cell: I64) -> F64:
         """The path (P, 2) in metres from the start to a reachable ``cell`` (row, col)."""
@@ -74,6 +75,19 @@ class CostField:
             raise ValueError(f"cell {tuple(cell)} is not reachable")
         rc = np.asarray(self._mcp.traceback((int(cell[0]), int(cell[1]))), np.int64)
         return self.grid.cell_to_world(rc)
+
+    def costs_between(self, cells: I64) -> F64:
+        """(N, N) path costs [m] between reachable ``cells`` (N, 2) (row, col), with the same step costs as the
+        robot's (one Dijkstra from each, stopped once it reached all the others)."""
+        cells = np.asarray(cells, np.int64).reshape(-1, 2)
+        out = np.zeros((len(cells), len(cells)))
+        if self._step is None or len(cells) < 2:
+            return out
+        targets = [(int(r), int(c)) for r, c in cells]
+        for i, start in enumerate(targets):
+            costs, _ = MCP_Geometric(self._step).find_costs([start], targets, find_all_ends=True)
+            out[i] = costs[cells[:, 0], cells[:, 1]] * self.grid.resolution_m
+        return np.minimum(out, out.T)  # the two directions of one path; Dijkstra's ends agree up to rounding
 
 
 def _snap(traversable: BoolArray, cell: I64, resolution_m: float) -> tuple[int, int] | None:
@@ -111,4 +125,4 @@ def cost_field(image: NDArray[np.floating], grid: GridSpec, start_xy_m: F64, rob
     mcp = MCP_Geometric(step)
     costs, _ = mcp.find_costs([start])
     costs = np.where(np.isfinite(costs), costs * res, np.inf)
-    return CostField(grid, traversable, costs, start, mcp)
+    return CostField(grid, traversable, costs, start, mcp, step)

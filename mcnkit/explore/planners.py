@@ -32,6 +32,7 @@ from mcnkit.explore.config import ExploreConfig, GainConfig
 from mcnkit.explore.frontiers import Frontiers, Viewpoints, find_frontiers, planning_map, viewpoints
 from mcnkit.explore.gain import cell_weights, finished_pockets, sample_walls, trade_off, visible_gains
 from mcnkit.explore.paths import CostField, cost_field
+from mcnkit.explore.tour import open_tour
 from mcnkit.slam.lineage import LineageMap
 from mcnkit.types import GridSpec
 
@@ -41,7 +42,7 @@ if TYPE_CHECKING:
     from mcnkit.completion.nets import CompletionNet
     from mcnkit.explore.predict import Prediction
 
-__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "planning_view"]
+__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "planning_view", "tour_scores"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -82,7 +83,8 @@ class Planner(Protocol):
     name: str
     commits: bool
 
-    def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]: ...
+    def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
+        ...
 
 
 class FrontierPlanner:
@@ -92,7 +94,7 @@ class FrontierPlanner:
     name = "frontier"
     commits = True
 
-    def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]:
+    def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         """Zero gain, score −cost."""
         return np.zeros(len(points)), -points.cost_m, None
 
@@ -109,8 +111,9 @@ class McnPlanner:
         self.range_m = float(range_m)
         self.generator = generator
 
-    def score(self, view: PlanningView, points: Viewpoints) -> tuple[F64, F64, Prediction | None]:
-        """Expected gain (V,) [m²] and its trade-off against the path cost (V,); the prediction it came from."""
+    def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
+        """Expected gain (V,) [m²] and its trade-off against the path cost (V,) (``field``: the robot's path costs,
+        for the ``tour`` trade-off's costs between viewpoints); the prediction it came from."""
         from mcnkit.explore.predict import predict
 
         cfg = self.config
@@ -128,7 +131,23 @@ class McnPlanner:
             per_sample = per_sample + finished_pockets(pred.samples, pred.partial, origins, cfg.beams, range_cells,
                                                        w.resolution_m**2, cfg.finish_share)
         gain = per_sample.mean(axis=1)
+        if cfg.tradeoff == "tour":
+            return gain, tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places), pred
         return gain, trade_off(gain, points.cost_m, cfg.tradeoff, cfg.cost_lambda_per_m, cfg.cost_floor_m), pred
+
+
+def tour_scores(gain: F64, points: Viewpoints, field: CostField, min_gain_m2: float, places: int) -> F64:
+    """Scores (V,) that rank the viewpoints worth a visit (expected gain at least ``min_gain_m2``; all when none is;
+    the ``places`` cheapest of them) in the order of the shortest open tour from the robot through them
+    (:func:`mcnkit.explore.tour.open_tour`; the first stop scores highest), and the others below them by path cost."""
+    score = -np.asarray(points.cost_m, np.float64) / (1.0 + float(np.max(points.cost_m, initial=0.0)))  # in (-1, 0]
+    worth = np.flatnonzero(gain >= min_gain_m2)
+    if len(worth) == 0:
+        worth = np.arange(len(gain))
+    nodes = worth[np.argsort(points.cost_m[worth], kind="stable")[:places]]
+    order = open_tour(points.cost_m[nodes], field.costs_between(points.cells[nodes]))
+    score[nodes[order]] = np.arange(len(order), 0, -1, dtype=np.float64)
+    return score
 
 
 @dataclass(frozen=True)
@@ -173,7 +192,7 @@ def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_ra
         points = viewpoints(frontiers, field_, config, blacklist_xy_m)
         if len(points) or frontiers.n_segments == 0:
             break
-    gain, score, pred = planner.score(view, points)
+    gain, score, pred = planner.score(view, points, field_)
     choice = None
     path = None
     kept = False

@@ -60,6 +60,19 @@ def test_the_mcn_planner_scores_viewpoints_from_samples(rooms: PlanRaster) -> No
     assert d.choice == int(np.argmax(d.score))
 
 
+def test_the_tour_trade_off_drives_to_the_first_stop_of_a_tour(rooms: PlanRaster) -> None:
+    net = UNet(UNetConfig(base_channels=4, depth=2, dropout=0.5, size=64)).eval()
+    gain = GainConfig(samples=2, beams=90, tradeoff="tour", tour_min_gain_m2=0.0)
+    ex = Explorer(rooms, McnPlanner(net, gain, 8.0, torch.Generator().manual_seed(0)), sim=SHORT_SIGHTED, seed=3)
+    steps = [d for d in (ex.step().decision for _ in range(400)) if d is not None and d.choice is not None]
+    ex.run()
+    assert ex.stop_reason in ("explored", "coverage") and ex.coverage > 0.97
+    for d in steps:
+        n = min(len(d.points), gain.tour_places)
+        assert sorted(d.score)[-n:] == list(range(1, n + 1))  # the tour's stops ranked 1..n, the first scores n
+        assert d.choice == int(np.argmax(d.score))
+
+
 def test_stop_coverage(rooms: PlanRaster) -> None:
     ex = Explorer(rooms, FrontierPlanner(), ExploreConfig(stop_coverage=0.5), seed=3)
     ex.run()

@@ -66,3 +66,16 @@ def test_a_touched_wall_blocks_the_paths_through_it() -> None:
     assert (marked != image).sum() == 5
     assert np.isinf(cost_field(marked, GRID, start, 0.2, 0.05).cost_m[10, 50])
     assert mark_contacts(image, GRID, np.zeros((0, 2))) is image
+
+
+def test_costs_between_places_follow_the_same_paths() -> None:
+    image = _corridor()
+    image[1:15, 30] = OCCUPIED  # a wall across the corridor, open at its top (rows 15-18)
+    field = cost_field(image, GRID, np.array([1.05, 1.05]), robot_radius_m=0.2, margin_m=0.05)
+    cells = np.array([[10, 10], [10, 50], [10, 20]])
+    between = field.costs_between(cells)
+    np.testing.assert_allclose(between, between.T)
+    assert np.all(np.diag(between) == 0)
+    np.testing.assert_allclose(between[0], field.cost_m[cells[:, 0], cells[:, 1]], rtol=1e-6)  # from the robot's cell
+    assert between[1, 2] > 3.0  # round the wall's end: farther than the 3 m straight line
+    assert field.costs_between(cells[:1]).shape == (1, 1)
