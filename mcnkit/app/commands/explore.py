@@ -128,7 +128,8 @@ def cmd_explore(args: argparse.Namespace) -> int:
     why = _STOPS.get(summary.stop_reason, summary.stop_reason) if stopped_by is None else f"stopped by {stopped_by}"
     print(f"{why}: coverage "
           f"{summary.coverage:.3f} after {summary.path_length_m:.1f} m ({summary.frames} frames, "
-          f"{summary.planning_steps} planning steps), 90 % coverage at "
+          f"{summary.planning_steps} planning steps"
+          f"{f', {summary.collisions} collisions' if summary.collisions else ''}), 90 % coverage at "
           f"{'—' if done is None else f'{done:.1f} m'}; F of the map {f_slam:.3f}"
           f"{'' if f_done is None else f', completed {f_done:.3f}'}; CPU {summary.cpu_s:.1f} s "
           f"({1000 * summary.plan_cpu_s_mean:.0f} ms per planning step)", flush=True)
