@@ -10,9 +10,10 @@ odometry) in a plan at a random safe pose and runs, per frame (``1 / scan_rate_h
    but for one thing: a beam that returned nothing saw free space out to the sensor's range (the SLAM skips such
    beams; a robot looking down a long corridor would otherwise never know it can go there);
 2. one frame of carrot following along the path from the estimated pose; the same commands move the true pose
-   (a move that would put the robot's disc into a wall of the ground truth is not made: a collision, then a replan
-   on a map that holds the contact point for ``contact_keep_s``, placed in the robot's estimated frame where its
-   bumper felt the wall, so a map that draws a wall a little off does not wedge the robot against it);
+   (a move that would put the robot's disc into a wall of the ground truth is not made: a collision; the robot
+   backs off a frame, puts the point its bumper felt on its planning map for ``contact_keep_s`` (in its estimated
+   frame), follows the next metre of its new path without cutting corners and plans again, so a map that draws a
+   wall a little off, or a wall below the lidar's plane, does not wedge the robot against it);
 3. the odometry measures the true motion with the simulator's noise, the lidar scans from the true pose;
 4. FastSLAM steps on that frame; the coverage (:mod:`mcnkit.explore.coverage`) is updated from the true pose.
 
@@ -159,7 +160,7 @@ class Explorer:
     seed: int = 0
     low_obstacles: BoolArray | None = None
     """(H, W) cells of ``raster`` the robot cannot drive into but its lidar does not see (below the scan plane: a
-    step, a low table, a chair's legs); None: none."""
+    step, a low table, a chair's legs); None: none.  The coverage is still measured on the plan's reachable space."""
 
     def __post_init__(self) -> None:
         self.rng, slam_rng, self.sampler_seed = seed_streams(self.seed)
