@@ -267,6 +267,7 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "consensus walls, ratio": ("mcn", None, {"gain": "consensus"}, {}),
     "unknown, tour": ("mcn", None, {"gain": "unknown", "tradeoff": "tour"}, {}),
     "observed (no prediction), tour": ("mcn", None, {"gain": "observed", "tradeoff": "tour"}, {}),
+    "unknown, regret": ("mcn", None, {"gain": "unknown", "tradeoff": "regret"}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and
 ExploreConfig fields over the defaults).  ``--study-models`` adds ``unknown, ratio`` and ``disagreement, ratio``

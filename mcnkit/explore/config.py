@@ -87,10 +87,11 @@ class GainConfig:
     samples disagree on them (4·p·(1−p), p the share of samples that say occupied); ``observed``: no prediction,
     the unknown area seen through the SLAM map's known walls only (unknown space counted transparent);
     ``consensus``: the unknown area seen through the walls at least half the samples draw."""
-    tradeoff: Literal["ratio", "exp", "tour"] = "ratio"
+    tradeoff: Literal["ratio", "exp", "tour", "regret"] = "ratio"
     """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost);
     ``tour``: the first stop of the shortest tour from the robot through the (at most ``tour_places`` cheapest)
-    viewpoints whose expected gain is at least ``tour_min_gain_m2`` (:mod:`mcnkit.explore.tour`)."""
+    viewpoints whose expected gain is at least ``tour_min_gain_m2`` (:mod:`mcnkit.explore.tour`); ``regret``: gain /
+    (path cost + ``cost_floor_m`` + how much longer that tour gets when it starts there), over the same viewpoints."""
     cost_lambda_per_m: float = 0.3
     """λ of the ``exp`` trade-off [1/m]."""
     cost_floor_m: float = 1.0
@@ -125,7 +126,7 @@ class GainConfig:
             raise ValueError(f"samples and tour_places must be >= 1, beams >= 4, tour_min_gain_m2 >= 0: {self}")
         if not 0 <= self.finish_share <= 1:
             raise ValueError(f"finish_share must be in [0, 1], got {self.finish_share}")
-        if self.gain not in ("unknown", "disagreement", "observed", "consensus") or self.tradeoff not in ("ratio", "exp", "tour"):
+        if self.gain not in ("unknown", "disagreement", "observed", "consensus") or self.tradeoff not in ("ratio", "exp", "tour", "regret"):
             raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
         if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:
             raise ValueError(f"cost_lambda_per_m and window_margin_m must be >= 0, cost_floor_m > 0: {self}")

@@ -32,7 +32,7 @@ from mcnkit.explore.config import ExploreConfig, GainConfig
 from mcnkit.explore.frontiers import Frontiers, Viewpoints, find_frontiers, planning_map, viewpoints
 from mcnkit.explore.gain import cell_weights, finished_pockets, sample_walls, trade_off, visible_gains
 from mcnkit.explore.paths import CostField, cost_field
-from mcnkit.explore.tour import open_tour
+from mcnkit.explore.tour import open_tour, tour_length
 from mcnkit.slam.lineage import LineageMap
 from mcnkit.types import GridSpec
 
@@ -42,7 +42,8 @@ if TYPE_CHECKING:
     from mcnkit.completion.nets import CompletionNet
     from mcnkit.explore.predict import Prediction
 
-__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "planning_view", "tour_scores"]
+__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "planning_view", "regret_scores",
+           "tour_scores"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -133,7 +134,33 @@ class McnPlanner:
         gain = per_sample.mean(axis=1)
         if cfg.tradeoff == "tour":
             return gain, tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places), pred
+        if cfg.tradeoff == "regret":
+            return gain, regret_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places,
+                                       cfg.cost_floor_m), pred
         return gain, trade_off(gain, points.cost_m, cfg.tradeoff, cfg.cost_lambda_per_m, cfg.cost_floor_m), pred
+
+
+def regret_scores(gain: F64, points: Viewpoints, field: CostField, min_gain_m2: float, places: int,
+                  cost_floor_m: float) -> F64:
+    """Scores (V,): gain / (path cost + the tour's regret + ``cost_floor_m``) for the viewpoints worth a visit (as
+    :func:`tour_scores` chooses them), where the regret is how much longer the shortest tour through all of them gets
+    when it starts at that viewpoint (a goal that leaves a room behind costs the trip back); the others below them
+    by path cost."""
+    score = -np.asarray(points.cost_m, np.float64) / (1.0 + float(np.max(points.cost_m, initial=0.0)))  # in (-1, 0]
+    worth = np.flatnonzero(gain >= min_gain_m2)
+    if len(worth) == 0:
+        worth = np.arange(len(gain))
+    nodes = worth[np.argsort(points.cost_m[worth], kind="stable")[:places]]
+    cost = points.cost_m[nodes]
+    between = field.costs_between(points.cells[nodes])
+    lengths = np.empty(len(nodes))
+    for i in range(len(nodes)):
+        rest = np.delete(np.arange(len(nodes)), i)
+        order = open_tour(between[i, rest], between[np.ix_(rest, rest)])
+        lengths[i] = cost[i] + tour_length(order, between[i, rest], between[np.ix_(rest, rest)])
+    regret = lengths - lengths.min()
+    score[nodes] = np.maximum(gain[nodes], 1e-9) / (cost + regret + cost_floor_m)
+    return score
 
 
 def tour_scores(gain: F64, points: Viewpoints, field: CostField, min_gain_m2: float, places: int) -> F64:
