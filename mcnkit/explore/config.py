@@ -4,14 +4,18 @@ line can generate its ``--explore.FIELD`` / ``--gain.FIELD`` flags without impor
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, get_args
 
-__all__ = ["PLANNERS", "ExploreConfig", "GainConfig", "PlannerName"]
+__all__ = ["PLANNERS", "ExploreConfig", "GainConfig", "GainKind", "PlannerName", "TradeOff"]
 
 PlannerName = Literal["frontier", "mcn"]
 PLANNERS: tuple[PlannerName, ...] = ("frontier", "mcn")
 """``frontier``: the nearest reachable frontier (Yamauchi 1997); ``mcn``: frontiers scored by the information the
 K sampled completions expect there, against the path cost."""
+
+
+GainKind = Literal["unknown", "disagreement", "observed", "consensus"]
+TradeOff = Literal["ratio", "exp", "tour", "regret"]
 
 
 @dataclass(frozen=True)
@@ -81,13 +85,13 @@ class GainConfig:
 
     samples: int = 8
     """K completions drawn at every planning step."""
-    gain: Literal["unknown", "disagreement", "observed", "consensus"] = "unknown"
+    gain: GainKind = "unknown"
     """``unknown``: the area unknown in the SLAM map that a scan from the viewpoint would see, ray-cast through each
     sample's own walls, averaged over the samples; ``disagreement``: the same cells weighted by how much the
     samples disagree on them (4·p·(1−p), p the share of samples that say occupied); ``observed``: no prediction,
     the unknown area seen through the SLAM map's known walls only (unknown space counted transparent);
     ``consensus``: the unknown area seen through the walls at least half the samples draw."""
-    tradeoff: Literal["ratio", "exp", "tour", "regret"] = "ratio"
+    tradeoff: TradeOff = "ratio"
     """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost);
     ``tour``: the first stop of the shortest tour from the robot through the (at most ``tour_places`` cheapest)
     viewpoints whose expected gain is at least ``tour_min_gain_m2`` (:mod:`mcnkit.explore.tour`); ``regret``: gain /
@@ -98,10 +102,10 @@ class GainConfig:
     """Added to the path cost of the ``ratio`` trade-off, so a frontier at the robot's feet does not win by
     dividing by zero [m]."""
     tour_min_gain_m2: float = 1.0
-    """The ``tour`` trade-off visits the viewpoints the samples expect at least this much new area from [m²] (all of
-    them when none does)."""
+    """The ``tour`` and ``regret`` trade-offs plan through the viewpoints the samples expect at least this much new
+    area from [m²] (all of them when none does)."""
     tour_places: int = 12
-    """The ``tour`` trade-off plans through at most this many viewpoints, the cheapest to reach."""
+    """The ``tour`` and ``regret`` trade-offs plan through at most this many viewpoints, the cheapest to reach."""
     window_margin_m: float = 2.0
     """The network's window: the SLAM map's seen bounds plus this margin, padded square (the nets were trained on
     whole houses filling the window; the margin leaves room for the part not seen yet) [m]."""
@@ -126,7 +130,7 @@ class GainConfig:
             raise ValueError(f"samples and tour_places must be >= 1, beams >= 4, tour_min_gain_m2 >= 0: {self}")
         if not 0 <= self.finish_share <= 1:
             raise ValueError(f"finish_share must be in [0, 1], got {self.finish_share}")
-        if self.gain not in ("unknown", "disagreement", "observed", "consensus") or self.tradeoff not in ("ratio", "exp", "tour", "regret"):
+        if self.gain not in get_args(GainKind) or self.tradeoff not in get_args(TradeOff):
             raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
         if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:
             raise ValueError(f"cost_lambda_per_m and window_margin_m must be >= 0, cost_floor_m > 0: {self}")

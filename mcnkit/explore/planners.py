@@ -114,7 +114,7 @@ class McnPlanner:
 
     def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         """Expected gain (V,) [m²] and its trade-off against the path cost (V,) (``field``: the robot's path costs,
-        for the ``tour`` trade-off's costs between viewpoints); the prediction it came from."""
+        for the ``tour`` and ``regret`` trade-offs' costs between viewpoints); the prediction it came from."""
         from mcnkit.explore.predict import predict
 
         cfg = self.config
@@ -140,17 +140,23 @@ class McnPlanner:
         return gain, trade_off(gain, points.cost_m, cfg.tradeoff, cfg.cost_lambda_per_m, cfg.cost_floor_m), pred
 
 
+def _tour_stops(gain: F64, points: Viewpoints, min_gain_m2: float, places: int) -> tuple[F64, NDArray[np.intp]]:
+    """The viewpoints a tour goes through (expected gain at least ``min_gain_m2``, all when none is; the ``places``
+    cheapest of them), and scores (V,) in (−1, 0] that rank every viewpoint by path cost, below any stop's score."""
+    score = -np.asarray(points.cost_m, np.float64) / (1.0 + float(np.max(points.cost_m, initial=0.0)))
+    worth = np.flatnonzero(gain >= min_gain_m2)
+    if len(worth) == 0:
+        worth = np.arange(len(gain))
+    return score, worth[np.argsort(points.cost_m[worth], kind="stable")[:places]]
+
+
 def regret_scores(gain: F64, points: Viewpoints, field: CostField, min_gain_m2: float, places: int,
                   cost_floor_m: float) -> F64:
     """Scores (V,): gain / (path cost + the tour's regret + ``cost_floor_m``) for the viewpoints worth a visit (as
     :func:`tour_scores` chooses them), where the regret is how much longer the shortest tour through all of them gets
     when it starts at that viewpoint (a goal that leaves a room behind costs the trip back); the others below them
     by path cost."""
-    score = -np.asarray(points.cost_m, np.float64) / (1.0 + float(np.max(points.cost_m, initial=0.0)))  # in (-1, 0]
-    worth = np.flatnonzero(gain >= min_gain_m2)
-    if len(worth) == 0:
-        worth = np.arange(len(gain))
-    nodes = worth[np.argsort(points.cost_m[worth], kind="stable")[:places]]
+    score, nodes = _tour_stops(gain, points, min_gain_m2, places)
     cost = points.cost_m[nodes]
     between = field.costs_between(points.cells[nodes])
     lengths = np.empty(len(nodes))
@@ -167,11 +173,7 @@ def tour_scores(gain: F64, points: Viewpoints, field: CostField, min_gain_m2: fl
     """Scores (V,) that rank the viewpoints worth a visit (expected gain at least ``min_gain_m2``; all when none is;
     the ``places`` cheapest of them) in the order of the shortest open tour from the robot through them
     (:func:`mcnkit.explore.tour.open_tour`; the first stop scores highest), and the others below them by path cost."""
-    score = -np.asarray(points.cost_m, np.float64) / (1.0 + float(np.max(points.cost_m, initial=0.0)))  # in (-1, 0]
-    worth = np.flatnonzero(gain >= min_gain_m2)
-    if len(worth) == 0:
-        worth = np.arange(len(gain))
-    nodes = worth[np.argsort(points.cost_m[worth], kind="stable")[:places]]
+    score, nodes = _tour_stops(gain, points, min_gain_m2, places)
     order = open_tour(points.cost_m[nodes], field.costs_between(points.cells[nodes]))
     score[nodes[order]] = np.arange(len(order), 0, -1, dtype=np.float64)
     return score

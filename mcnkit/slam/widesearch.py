@@ -125,8 +125,7 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
     rad = min(max(3.0 * float(sigma[2]), floor_rad), config.motion.unknown_window_rad)
 
     cap = beams * math.log(1.0 / config.wide.jump_ratio)
-    # the search places a scan on its lattice (a cell, an angular step): the pose nearest the prediction that it can
-    # return may lie a cell off, so the distance is judged against the prior's spread and the lattice's together
+    # the prior's spread widened by the search lattice (see the docstring)
     lattice = np.array([res, res, angular_step(scan, res)])
     spread = np.sqrt(np.asarray(sigma, np.float64) ** 2 + lattice**2)
 
