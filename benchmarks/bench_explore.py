@@ -268,6 +268,15 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "unknown, tour": ("mcn", None, {"gain": "unknown", "tradeoff": "tour"}, {}),
     "observed (no prediction), tour": ("mcn", None, {"gain": "observed", "tradeoff": "tour"}, {}),
     "unknown, regret": ("mcn", None, {"gain": "unknown", "tradeoff": "regret"}, {}),
+    "open (samples' free area, known walls), ratio": ("mcn", None, {"gain": "open"}, {}),
+    "observed (no prediction), finished pockets twice": ("mcn", None, {"gain": "observed", "finish_share": 0.9}, {}),
+    "unknown, ratio, 50 % samples": ("mcn", None, {"gain": "unknown", "sample_share": 0.5}, {}),
+    "unknown, ratio, keep +25 %": ("mcn", None, {"gain": "unknown", "keep_bonus": 0.25}, {}),
+    "unknown, ratio, same noise": ("mcn", None, {"gain": "unknown", "same_noise": True}, {}),
+    "unknown, ratio, same noise, keep +25 %": ("mcn", None, {"gain": "unknown", "same_noise": True,
+                                                           "keep_bonus": 0.25}, {}),
+    "unknown, ratio, local 2.5 m": ("mcn", None, {"gain": "unknown", "local_m": 2.5}, {}),
+    "unknown, ratio, local 4 m": ("mcn", None, {"gain": "unknown", "local_m": 4.0}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and
 ExploreConfig fields over the defaults).  ``--study-models`` adds ``unknown, ratio`` and ``disagreement, ratio``

@@ -14,7 +14,7 @@ PLANNERS: tuple[PlannerName, ...] = ("frontier", "mcn")
 K sampled completions expect there, against the path cost."""
 
 
-GainKind = Literal["unknown", "disagreement", "observed", "consensus"]
+GainKind = Literal["unknown", "disagreement", "observed", "consensus", "open"]
 TradeOff = Literal["ratio", "exp", "tour", "regret"]
 
 
@@ -90,7 +90,9 @@ class GainConfig:
     sample's own walls, averaged over the samples; ``disagreement``: the same cells weighted by how much the
     samples disagree on them (4·p·(1−p), p the share of samples that say occupied); ``observed``: no prediction,
     the unknown area seen through the SLAM map's known walls only (unknown space counted transparent);
-    ``consensus``: the unknown area seen through the walls at least half the samples draw."""
+    ``consensus``: the unknown area seen through the walls at least half the samples draw; ``open``: the unknown
+    area the samples say is free (the share of them that do), seen through the SLAM map's known walls only: the
+    samples say how far the house goes, not where its unseen inner walls stand."""
     tradeoff: TradeOff = "ratio"
     """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost);
     ``tour``: the first stop of the shortest tour from the robot through the (at most ``tour_places`` cheapest)
@@ -102,10 +104,15 @@ class GainConfig:
     """Added to the path cost of the ``ratio`` trade-off, so a frontier at the robot's feet does not win by
     dividing by zero [m]."""
     tour_min_gain_m2: float = 1.0
-    """The ``tour`` and ``regret`` trade-offs plan through the viewpoints the samples expect at least this much new
+    """The ``tour`` and ``regret`` trade-offs (and ``local_m``) plan through the viewpoints the samples expect at least this much new
     area from [m²] (all of them when none does)."""
     tour_places: int = 12
     """The ``tour`` and ``regret`` trade-offs plan through at most this many viewpoints, the cheapest to reach."""
+    local_m: float = 0.0
+    """When positive, the viewpoints within this path cost that the samples expect at least ``tour_min_gain_m2`` from
+    are chosen before any farther one (among themselves by the trade-off): what lies beside the robot is finished
+    before it leaves for a larger but farther view, the local-then-global order of hierarchical explorers (TARE), so
+    no room next to the robot is left for a trip back.  0: the trade-off alone decides [m]."""
     window_margin_m: float = 2.0
     """The network's window: the SLAM map's seen bounds plus this margin, padded square (the nets were trained on
     whole houses filling the window; the margin leaves room for the part not seen yet) [m]."""
@@ -119,6 +126,17 @@ class GainConfig:
     commit: bool = False
     """Keep the goal until it is reached, as the frontier planner does (ExploreConfig.commit_m); off: choose the best
     score afresh at every planning step."""
+    sample_share: float = 1.0
+    """The samples' share of a viewpoint's gain; the rest is the ``observed`` gain of the same viewpoint (the unknown
+    area seen through the SLAM map's known walls, no prediction): a hedge against samples that close off space that
+    is open, or draw the house ending where it goes on.  1: the samples' gain alone."""
+    keep_bonus: float = 0.0
+    """The viewpoint nearest the goal the robot is driving to (within ``ExploreConfig.commit_m``) scores this share
+    more when the goal is chosen afresh: another must beat it by that much to take its place, so the noise of K
+    samples does not turn the robot back and forth between two goals of about equal worth.  0: no such bonus."""
+    same_noise: bool = False
+    """Draw every planning step's samples from the same random numbers (common random numbers): two steps' samples
+    then differ where the map does, not by chance, and so do their scores."""
     finish_share: float = 0.0
     """When positive, a pocket of a sample (unknown space its walls close off, not cut by the window's edge: a
     closet, a room behind a door) that a scan from the viewpoint would see at least this share of counts its whole
@@ -128,11 +146,13 @@ class GainConfig:
     def __post_init__(self) -> None:
         if self.samples < 1 or self.beams < 4 or self.tour_places < 1 or self.tour_min_gain_m2 < 0:
             raise ValueError(f"samples and tour_places must be >= 1, beams >= 4, tour_min_gain_m2 >= 0: {self}")
-        if not 0 <= self.finish_share <= 1:
-            raise ValueError(f"finish_share must be in [0, 1], got {self.finish_share}")
+        if not (0 <= self.finish_share <= 1 and 0 <= self.sample_share <= 1):
+            raise ValueError(f"finish_share and sample_share must be in [0, 1]: {self}")
         if self.gain not in get_args(GainKind) or self.tradeoff not in get_args(TradeOff):
             raise ValueError(f"unknown gain {self.gain!r} or trade-off {self.tradeoff!r}")
-        if self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0:
-            raise ValueError(f"cost_lambda_per_m and window_margin_m must be >= 0, cost_floor_m > 0: {self}")
+        if (self.cost_lambda_per_m < 0 or self.cost_floor_m <= 0 or self.window_margin_m < 0 or self.local_m < 0
+                or self.keep_bonus < 0):
+            raise ValueError(f"cost_lambda_per_m, window_margin_m, local_m and keep_bonus must be >= 0, cost_floor_m "
+                             f"> 0: {self}")
         if not 0 < self.window_min_m <= self.window_max_m:
             raise ValueError(f"need 0 < window_min_m <= window_max_m: {self}")

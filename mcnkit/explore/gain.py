@@ -11,7 +11,9 @@ it sees, averaged over the samples; the weights (:func:`cell_weights`) are
 * ``observed``: the unknown area again, but seen through the SLAM map's own known walls (unknown space
   transparent): the information gain without any prediction, to measure what the samples add;
 * ``consensus``: the unknown area seen through the walls that at least half the samples draw (the mean completion's
-  walls, as MapEx casts its rays): a wall one sample imagines alone does not hide what lies behind it.
+  walls, as MapEx casts its rays): a wall one sample imagines alone does not hide what lies behind it;
+* ``open``: the unknown area weighted by the share of samples that call it free, seen through the SLAM map's known
+  walls only: the samples say how far the house goes, not where its unseen walls stand.
 
 Seen now or seen later is not the same for every cell: a *pocket* of a sample, unknown space that the sample's
 walls close off (a closet, a room behind a door), that one scan from the viewpoint would nearly finish needs no
@@ -36,7 +38,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from mcnkit.explore.rays import cast_visibility
-from mcnkit.types import OCCUPIED, UNKNOWN
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
 __all__ = ["cell_weights", "finished_pockets", "sample_walls", "trade_off", "visible_gains", "visible_mask"]
 
@@ -97,7 +99,7 @@ def finished_pockets(samples: NDArray[np.floating], partial: NDArray[np.floating
 def sample_walls(samples: NDArray[np.floating], partial: NDArray[np.floating], kind: str) -> BoolArray:
     """The walls (K, H, W) the visibility is cast through: each sample's occupied cells, or (K = 1) the SLAM map's
     own occupied cells only (``observed``) or the cells at least half the samples say are occupied (``consensus``)."""
-    if kind == "observed":
+    if kind in ("observed", "open"):
         return (np.asarray(partial) == OCCUPIED)[None]
     if kind == "consensus":
         return ((np.asarray(samples) == OCCUPIED).mean(axis=0) >= 0.5)[None]
@@ -110,6 +112,8 @@ def cell_weights(samples: NDArray[np.floating], partial: NDArray[np.floating], c
     unknown = np.asarray(partial) == UNKNOWN
     if kind in ("unknown", "observed", "consensus"):
         return unknown * float(cell_area_m2)
+    if kind == "open":
+        return unknown * (np.asarray(samples) == FREE).mean(axis=0) * float(cell_area_m2)
     if kind == "disagreement":
         p = (np.asarray(samples) == OCCUPIED).mean(axis=0)
         return unknown * (4.0 * p * (1.0 - p)) * float(cell_area_m2)

@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from mcnkit.completion.nets import CompletionNet
     from mcnkit.explore.predict import Prediction
 
-__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "planning_view", "regret_scores",
+__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "local_first", "planning_view", "regret_scores",
            "tour_scores"]
 
 F64 = NDArray[np.float64]
@@ -79,10 +79,12 @@ def planning_view(lineage: LineageMap, pose: F64, resolution_m: float, max_cells
 
 class Planner(Protocol):
     """Scores frontier viewpoints: ``(gain (V,), score (V,), prediction or None)``, higher scores first;
-    ``commits``: it keeps its goal until reached (``ExploreConfig.commit_m``)."""
+    ``commits``: it keeps its goal until reached (``ExploreConfig.commit_m``); ``keep_bonus``: otherwise, the share by
+    which the viewpoint at its goal scores more when it chooses afresh."""
 
     name: str
     commits: bool
+    keep_bonus: float
 
     def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         ...
@@ -94,6 +96,7 @@ class FrontierPlanner:
 
     name = "frontier"
     commits = True
+    keep_bonus = 0.0
 
     def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         """Zero gain, score −cost."""
@@ -109,8 +112,10 @@ class McnPlanner:
         self.net = net
         self.config = config
         self.commits = config.commit
+        self.keep_bonus = config.keep_bonus
         self.range_m = float(range_m)
         self.generator = generator
+        self._noise = generator.get_state()
 
     def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         """Expected gain (V,) [m²] and its trade-off against the path cost (V,) (``field``: the robot's path costs,
@@ -118,6 +123,8 @@ class McnPlanner:
         from mcnkit.explore.predict import predict
 
         cfg = self.config
+        if cfg.same_noise:
+            self.generator.set_state(self._noise)
         pred = predict(self.net, view.lineage, cfg, self.generator, view.pose[:2])
         if len(points) == 0:
             return np.zeros(0), np.zeros(0), pred
@@ -132,12 +139,30 @@ class McnPlanner:
             per_sample = per_sample + finished_pockets(pred.samples, pred.partial, origins, cfg.beams, range_cells,
                                                        w.resolution_m**2, cfg.finish_share)
         gain = per_sample.mean(axis=1)
+        if cfg.sample_share < 1 and cfg.gain != "observed":
+            seen_through_map = sample_walls(pred.samples, pred.partial, "observed")
+            plain = visible_gains(seen_through_map, cell_weights(pred.samples, pred.partial, w.resolution_m**2,
+                                                                 "observed"), origins, cfg.beams, range_cells)[:, 0]
+            gain = cfg.sample_share * gain + (1.0 - cfg.sample_share) * plain
         if cfg.tradeoff == "tour":
-            return gain, tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places), pred
-        if cfg.tradeoff == "regret":
-            return gain, regret_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places,
-                                       cfg.cost_floor_m), pred
-        return gain, trade_off(gain, points.cost_m, cfg.tradeoff, cfg.cost_lambda_per_m, cfg.cost_floor_m), pred
+            score = tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places)
+        elif cfg.tradeoff == "regret":
+            score = regret_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places, cfg.cost_floor_m)
+        else:
+            score = trade_off(gain, points.cost_m, cfg.tradeoff, cfg.cost_lambda_per_m, cfg.cost_floor_m)
+        if cfg.local_m > 0:
+            score = local_first(score, gain, points.cost_m, cfg.local_m, cfg.tour_min_gain_m2)
+        return gain, score, pred
+
+
+def local_first(score: F64, gain: F64, cost_m: F64, local_m: float, min_gain_m2: float) -> F64:
+    """Scores (V,) that rank the viewpoints within ``local_m`` of path cost and at least ``min_gain_m2`` of expected
+    gain above every other (in their own order of ``score``), the others as they were."""
+    score = np.asarray(score, np.float64).copy()
+    near = (np.asarray(cost_m) <= local_m) & (np.asarray(gain) >= min_gain_m2)
+    if near.any() and not near.all():
+        score[near] += float(score.max() - score[near].min()) + 1.0
+    return score
 
 
 def _tour_stops(gain: F64, points: Viewpoints, min_gain_m2: float, places: int) -> tuple[F64, NDArray[np.intp]]:
@@ -213,7 +238,8 @@ def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_ra
     """One planning step (see the module docstring); paths keep ``robot_radius_m + config.plan_margin_m`` from the
     map's walls, or only the radius when that leaves no frontier within reach (a door the map draws narrower than it
     is, a robot that drifted close to a wall).  With the current ``goal_xy_m`` and a planner that commits, the
-    viewpoint nearest to it is kept when within ``config.commit_m`` (the planner still scores them all)."""
+    viewpoint nearest to it is kept when within ``config.commit_m`` (the planner still scores them all); with a
+    planner's ``keep_bonus``, it is kept unless another scores that share more."""
     t0 = time.process_time()
     frontiers = find_frontiers(view.image, view.grid, config)
     for margin in (config.plan_margin_m, 0.0):  # no frontier within reach: squeeze through with no margin
@@ -228,10 +254,14 @@ def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_ra
     if len(points):
         # best score; among equal scores the cheapest (points are sorted by cost, argmax takes the first)
         choice = int(np.argmax(score))
-        if goal_xy_m is not None and config.commit_m > 0 and planner.commits:
+        if goal_xy_m is not None and config.commit_m > 0 and (planner.commits or planner.keep_bonus > 0):
             d = np.hypot(*(points.xy_m - goal_xy_m).T)
-            if d.min() <= config.commit_m:
-                choice, kept = int(np.argmin(d)), True
+            at_goal = int(np.argmin(d))
+            if d[at_goal] <= config.commit_m:
+                if planner.commits:
+                    choice, kept = at_goal, True
+                elif score[at_goal] + planner.keep_bonus * abs(score[at_goal]) >= score[choice]:
+                    choice, kept = at_goal, True
         path = field_.path_to(points.cells[choice])
     return Decision(view.image, frontiers, points, field_, gain, score, choice, path, pred, time.process_time() - t0,
                     kept)

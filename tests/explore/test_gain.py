@@ -97,3 +97,16 @@ def test_a_wall_only_one_sample_draws_does_not_hide_the_room_behind_it() -> None
     assert seen == 90  # columns 0-8: the lone wall at 6 hides nothing
     each = visible_gains(sample_walls(samples, partial, "unknown"), weight, origin, 720, 30.0)[0]
     np.testing.assert_array_equal(each, [70, 90, 90, 100])  # one sample at a time: one hides columns 7-9
+
+
+def test_open_counts_the_house_the_samples_draw_but_not_their_inner_walls() -> None:
+    samples = np.full((2, 10, 10), FREE, np.float32)
+    samples[:, :, 8:] = OCCUPIED  # both samples: the house ends at column 8 (outside is wall)
+    samples[0, :, 5] = OCCUPIED  # one sample draws an inner wall at column 5
+    partial = np.full((10, 10), UNKNOWN, np.float32)
+    walls = sample_walls(samples, partial, "open")
+    assert walls.shape == (1, 10, 10) and not walls.any()  # only the map's own walls stop the rays
+    weight = cell_weights(samples, partial, 1.0, "open")
+    np.testing.assert_allclose(weight[:, [0, 5, 8]], np.tile([1.0, 0.5, 0.0], (10, 1)))  # share of samples free
+    seen = visible_gains(walls, weight, np.array([[2.5, 5.5]]), 720, 30.0)[0, 0]
+    assert seen == pytest.approx(10 * 7 + 10 * 0.5)  # columns 0-7 behind the one-sample wall; nothing outside

@@ -5,12 +5,23 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
+from mcnkit.completion.nets import UNet, UNetConfig
+from mcnkit.explore.config import ExploreConfig, GainConfig
 from mcnkit.explore.frontiers import Viewpoints
 from mcnkit.explore.paths import cost_field
-from mcnkit.explore.planners import planning_view, regret_scores, tour_scores
+from mcnkit.explore.planners import (
+    McnPlanner,
+    PlanningView,
+    decide,
+    local_first,
+    planning_view,
+    regret_scores,
+    tour_scores,
+)
 from mcnkit.slam.lineage import LineageMap
-from mcnkit.types import FREE, OCCUPIED, GridSpec
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec
 
 
 def _lineage() -> LineageMap:
@@ -65,3 +76,89 @@ def test_the_regret_of_leaving_a_closet_behind_makes_it_the_goal() -> None:
     # a viewpoint the samples expect nothing from is no stop of the tour: it scores below every stop
     low = regret_scores(np.array([0.5, 6.0, 6.0]), points, field, 1.0, 12, 1.0)
     assert low[0] < 0 < low[1:].min()
+
+
+def test_what_lies_beside_the_robot_goes_first_with_local_first() -> None:
+    gain, points, _ = _corridor_choice()
+    ratio = gain / (points.cost_m + 1.0)
+    local = local_first(ratio, gain, points.cost_m, local_m=1.5, min_gain_m2=1.0)
+    assert int(np.argmax(local)) == 0  # the closet 1 m away, before the larger hall 3 m away
+    np.testing.assert_array_equal(np.argsort(local[1:]), np.argsort(ratio[1:]))  # the rest keep their order
+    # a near viewpoint the samples expect too little from, or a radius that takes in everything, changes nothing
+    np.testing.assert_array_equal(local_first(ratio, gain, points.cost_m, 1.5, 3.0), ratio)
+    np.testing.assert_array_equal(local_first(ratio, gain, points.cost_m, 100.0, 1.0), ratio)
+
+
+class _Fixed:
+    """A planner whose scores are fixed: 1.2 for the cheapest viewpoint, 1.0 for the others."""
+
+    name = "fixed"
+    commits = False
+
+    def __init__(self, keep_bonus: float) -> None:
+        self.keep_bonus = keep_bonus
+
+    def score(self, view: PlanningView, points: Viewpoints, field: object) -> tuple[np.ndarray, np.ndarray, None]:
+        s = np.ones(len(points))
+        s[0] = 1.2
+        return np.zeros(len(points)), s, None
+
+
+def _half_known_view() -> PlanningView:
+    """A 6 m × 4 m hall, its west half known free, its east half unknown: a 4 m frontier down the middle."""
+    grid = GridSpec(0.05, 0.0, 0.0, 120, 80)
+    image = np.full(grid.shape, UNKNOWN, np.float32)
+    image[:, :60] = FREE
+    image[[0, -1], :] = OCCUPIED
+    image[:, [0, -1]] = OCCUPIED
+    return PlanningView(grid, image, np.array([1.0, 2.0, 0.0]), _lineage())
+
+
+@pytest.mark.parametrize(("bonus", "kept"), [(0.25, True), (0.1, False)])
+def test_a_goal_is_kept_unless_another_scores_the_keep_bonus_more(bonus: float, kept: bool) -> None:
+    view = _half_known_view()
+    first = decide(view, _Fixed(bonus), ExploreConfig(), 0.2, np.zeros((0, 2)))
+    assert first.choice == 0 and len(first.points) >= 2 and not first.kept
+    goal = first.points.xy_m[1]  # the robot is driving to the viewpoint that now scores 1.0 against 1.2
+    again = decide(view, _Fixed(bonus), ExploreConfig(), 0.2, np.zeros((0, 2)), goal)
+    assert again.kept is kept and again.choice == (1 if kept else 0)
+
+
+def test_same_noise_draws_the_same_samples_for_the_same_map() -> None:
+    net = UNet(UNetConfig(base_channels=4, depth=2, dropout=0.5, size=64)).eval()
+    view = planning_view(_lineage(), np.array([0.0, 0.0, 0.0]), 0.05)
+    points = Viewpoints(np.zeros(0, np.int64), np.zeros((0, 2), np.int64), np.zeros((0, 2)), np.zeros(0),
+                        np.zeros(0, np.int64))
+    field = cost_field(view.image, view.grid, view.pose[:2], 0.2, 0.05)
+
+    def two_draws(same: bool) -> tuple[np.ndarray, np.ndarray]:
+        planner = McnPlanner(net, GainConfig(samples=3, same_noise=same), 8.0, torch.Generator().manual_seed(0))
+        a, b = (planner.score(view, points, field)[2] for _ in range(2))
+        assert a is not None and b is not None
+        return a.samples, b.samples
+
+    np.testing.assert_array_equal(*two_draws(True))
+    assert not np.array_equal(*two_draws(False))
+
+
+def test_sample_share_mixes_the_samples_gain_with_the_maps_own() -> None:
+    net = UNet(UNetConfig(base_channels=4, depth=2, dropout=0.5, size=64)).eval()
+    angles = np.linspace(-np.pi, np.pi, 360, endpoint=False)
+    lineage = LineageMap(0.05, angles, np.zeros(3), max_range_m=7.99, usable_m=7.98, occ_thresh=0.25)
+    ranges = (3.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))).astype(np.float32)
+    ranges[np.abs(angles) < 0.1] = 6.0  # a door east: a passage seen 6 m out, unknown space on both sides of it
+    lineage.sync(np.zeros((1, 3)), [ranges])
+    view = planning_view(lineage, np.zeros(3), 0.05)
+    field = cost_field(view.image, view.grid, view.pose[:2], 0.2, 0.05)
+    cells = view.grid.world_to_cell(np.array([[0.0, 0.0], [4.0, 0.0]]))
+    points = Viewpoints(np.arange(2), cells, view.grid.cell_to_world(cells), field.cost_m[cells[:, 0], cells[:, 1]],
+                        np.ones(2, np.int64))
+
+    def gain(**kw: object) -> np.ndarray:
+        config = GainConfig(samples=3, same_noise=True, **kw)  # type: ignore[arg-type]
+        return McnPlanner(net, config, 8.0, torch.Generator().manual_seed(0)).score(view, points, field)[0]
+
+    samples_only, plain = gain(), gain(gain="observed")
+    assert plain[1] > 0  # from the passage the map's own walls leave unknown space in sight
+    np.testing.assert_allclose(gain(sample_share=0.0), plain)
+    np.testing.assert_allclose(gain(sample_share=0.5), 0.5 * samples_only + 0.5 * plain)
