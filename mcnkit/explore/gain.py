@@ -37,10 +37,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from mcnkit.explore.config import GainConfig
 from mcnkit.explore.rays import cast_visibility
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
-__all__ = ["cell_weights", "finished_pockets", "sample_walls", "trade_off", "visible_gains", "visible_mask"]
+__all__ = ["cell_weights", "expected_gains", "finished_pockets", "sample_walls", "trade_off", "visible_gains",
+           "visible_mask"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -118,6 +120,26 @@ def cell_weights(samples: NDArray[np.floating], partial: NDArray[np.floating], c
         p = (np.asarray(samples) == OCCUPIED).mean(axis=0)
         return unknown * (4.0 * p * (1.0 - p)) * float(cell_area_m2)
     raise ValueError(f"unknown gain {kind!r}")
+
+
+def expected_gains(samples: NDArray[np.floating], partial: NDArray[np.floating], origins_xy_cells: NDArray[np.floating],
+                   config: GainConfig, range_cells: float, cell_area_m2: float) -> F64:
+    """(V,) what a scan from each origin ``[col, row]`` is expected to bring [m²], as ``config`` scores it: the
+    weighted cells it sees (:func:`cell_weights` through :func:`sample_walls`), plus the pockets it finishes
+    (``finish_share``), averaged over the samples, mixed with the ``observed`` gain by ``sample_share``."""
+    walls = sample_walls(samples, partial, config.gain)
+    weight = cell_weights(samples, partial, cell_area_m2, config.gain)
+    per_sample = visible_gains(walls, weight, origins_xy_cells, config.beams, range_cells)
+    if config.finish_share > 0:
+        per_sample = per_sample + finished_pockets(samples, partial, origins_xy_cells, config.beams, range_cells,
+                                                   cell_area_m2, config.finish_share)
+    gain = per_sample.mean(axis=1)
+    if config.sample_share < 1 and config.gain != "observed":
+        plain = visible_gains(sample_walls(samples, partial, "observed"),
+                              cell_weights(samples, partial, cell_area_m2, "observed"), origins_xy_cells,
+                              config.beams, range_cells)[:, 0]
+        gain = config.sample_share * gain + (1.0 - config.sample_share) * plain
+    return np.asarray(gain, np.float64)
 
 
 def trade_off(gain: F64, cost_m: F64, kind: str, cost_lambda_per_m: float, cost_floor_m: float) -> F64:

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from mcnkit.explore.config import ExploreConfig, GainConfig
 from mcnkit.explore.frontiers import Frontiers, Viewpoints, find_frontiers, planning_map, viewpoints
-from mcnkit.explore.gain import cell_weights, finished_pockets, sample_walls, trade_off, visible_gains
+from mcnkit.explore.gain import expected_gains, trade_off
 from mcnkit.explore.paths import CostField, cost_field
 from mcnkit.explore.tour import open_tour, tour_length
 from mcnkit.slam.lineage import LineageMap
@@ -42,8 +42,8 @@ if TYPE_CHECKING:
     from mcnkit.completion.nets import CompletionNet
     from mcnkit.explore.predict import Prediction
 
-__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "local_first", "planning_view", "regret_scores",
-           "tour_scores"]
+__all__ = ["Decision", "FrontierPlanner", "McnPlanner", "Planner", "PlanningView", "decide", "local_first",
+           "planning_view", "regret_scores", "tour_scores"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -83,8 +83,12 @@ class Planner(Protocol):
     which the viewpoint at its goal scores more when it chooses afresh."""
 
     name: str
-    commits: bool
-    keep_bonus: float
+
+    @property
+    def commits(self) -> bool: ...
+
+    @property
+    def keep_bonus(self) -> float: ...
 
     def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         ...
@@ -111,11 +115,19 @@ class McnPlanner:
     def __init__(self, net: CompletionNet, config: GainConfig, range_m: float, generator: torch.Generator) -> None:
         self.net = net
         self.config = config
-        self.commits = config.commit
-        self.keep_bonus = config.keep_bonus
         self.range_m = float(range_m)
         self.generator = generator
         self._noise = generator.get_state()
+
+    @property
+    def commits(self) -> bool:
+        """``GainConfig.commit``."""
+        return self.config.commit
+
+    @property
+    def keep_bonus(self) -> float:
+        """``GainConfig.keep_bonus``."""
+        return self.config.keep_bonus
 
     def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         """Expected gain (V,) [m²] and its trade-off against the path cost (V,) (``field``: the robot's path costs,
@@ -131,19 +143,8 @@ class McnPlanner:
         w = pred.window
         origins = np.stack([(points.xy_m[:, 0] - w.origin_x_m) / w.resolution_m,
                             (points.xy_m[:, 1] - w.origin_y_m) / w.resolution_m], 1)
-        walls = sample_walls(pred.samples, pred.partial, cfg.gain)
-        weight = cell_weights(pred.samples, pred.partial, w.resolution_m**2, cfg.gain)
-        range_cells = self.range_m / w.resolution_m
-        per_sample = visible_gains(walls, weight, origins, cfg.beams, range_cells)
-        if cfg.finish_share > 0:  # pockets a visit finishes count once more (see mcnkit.explore.gain)
-            per_sample = per_sample + finished_pockets(pred.samples, pred.partial, origins, cfg.beams, range_cells,
-                                                       w.resolution_m**2, cfg.finish_share)
-        gain = per_sample.mean(axis=1)
-        if cfg.sample_share < 1 and cfg.gain != "observed":
-            seen_through_map = sample_walls(pred.samples, pred.partial, "observed")
-            plain = visible_gains(seen_through_map, cell_weights(pred.samples, pred.partial, w.resolution_m**2,
-                                                                 "observed"), origins, cfg.beams, range_cells)[:, 0]
-            gain = cfg.sample_share * gain + (1.0 - cfg.sample_share) * plain
+        gain = expected_gains(pred.samples, pred.partial, origins, cfg, self.range_m / w.resolution_m,
+                              w.resolution_m**2)
         if cfg.tradeoff == "tour":
             score = tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places)
         elif cfg.tradeoff == "regret":
@@ -187,8 +188,8 @@ def regret_scores(gain: F64, points: Viewpoints, field: CostField, min_gain_m2: 
     lengths = np.empty(len(nodes))
     for i in range(len(nodes)):
         rest = np.delete(np.arange(len(nodes)), i)
-        order = open_tour(between[i, rest], between[np.ix_(rest, rest)])
-        lengths[i] = cost[i] + tour_length(order, between[i, rest], between[np.ix_(rest, rest)])
+        among = between[np.ix_(rest, rest)]
+        lengths[i] = cost[i] + tour_length(open_tour(between[i, rest], among), between[i, rest], among)
     regret = lengths - lengths.min()
     score[nodes] = np.maximum(gain[nodes], 1e-9) / (cost + regret + cost_floor_m)
     return score
