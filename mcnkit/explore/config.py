@@ -51,11 +51,16 @@ class ExploreConfig:
     """A planner that commits to its goal (the frontier planner; the mcn planner with --gain.commit) keeps it while
     a frontier viewpoint remains within this distance of it, until it is reached or given up, as Yamauchi's robot
     goes to its frontier; 0: every planner chooses afresh at every planning step [m]."""
+    keep_returned: bool = True
+    """A goal chosen again after the robot turned away from it (it was neither reached nor given up) is kept, as
+    ``commit_m`` keeps a committing planner's, until it is reached or given up: re-choosing at every planning step
+    otherwise lets two far goals of about equal worth, whose scores the samples' noise swaps from one step to the
+    next, turn the robot back and forth between them without end."""
     blacklist_m: float = 0.5
     """Frontier viewpoints within this distance of a goal that was reached without its frontier going away, or that
     the robot could not get to, are dropped for the rest of the run [m]."""
     stuck_s: float = 8.0
-    """A goal the robot gets no closer to for this long is dropped [s]."""
+    """A goal the robot gets no closer to for this long (by the path left to drive to it) is dropped [s]."""
     contact_keep_s: float = 60.0
     """Where the robot touched a wall (a move refused: its map put the wall elsewhere, or missed it), the contact
     point is an obstacle on the planning map for this long, as a bumper's in a costmap, so the next path goes around

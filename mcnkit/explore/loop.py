@@ -5,13 +5,14 @@ odometry) in a plan at a random safe pose and runs, per frame (``1 / scan_rate_h
 
 1. a planning step (:func:`mcnkit.explore.planners.decide`) when there is no path, the goal is reached, or the
    robot drove ``replan_m`` since the last one (which keeps the goal while its frontier is there, and plans a new
-   path to it on the new map); it plans on the best particle's map, from the robot's *estimated*
+   path to it on the new map; a goal chosen again after the robot turned away from it is kept until reached,
+   ``keep_returned``); it plans on the best particle's map, from the robot's *estimated*
    pose (the best particle's pose at the last filter update plus the odometry since).  That map is the SLAM's own,
    but for one thing: a beam that returned nothing saw free space out to the sensor's range (the SLAM skips such
    beams; a robot looking down a long corridor would otherwise never know it can go there);
 2. one frame of carrot following along the path from the estimated pose; the same commands move the true pose
    (a move that would put the robot's disc into a wall of the ground truth is not made: a collision; the robot
-   backs off a frame, puts the point its bumper felt on its planning map for ``contact_keep_s`` (in its estimated
+   backs off a frame (turning away where reversing would not free it), puts the point its bumper felt on its planning map for ``contact_keep_s`` (in its estimated
    frame), follows the next metre of its new path without cutting corners and plans again, so a map that draws a
    wall a little off, or a wall below the lidar's plane, does not wedge the robot against it);
 3. the odometry measures the true motion with the simulator's noise, the lidar scans from the true pose;
@@ -20,7 +21,7 @@ odometry) in a plan at a random safe pose and runs, per frame (``1 / scan_rate_h
 It stops when no frontier is reachable (``explored``), the path budget is spent (``budget``), the coverage reached
 ``stop_coverage`` (``coverage``), the time ran out (``time``: three times the budget at full speed) or the robot
 stands where its map leaves it no room to move (``stuck``).  Goals the
-robot reached without their frontier going away, or got no closer to for ``stuck_s``, are blacklisted.
+robot reached without their frontier going away, or got no closer to along the path for ``stuck_s``, are blacklisted.
 
 Randomness: one seed gives the start pose, the sensor and odometry noise, the SLAM's and the sampler's streams
 (:class:`numpy.random.SeedSequence` children), the same for every planner.
@@ -145,7 +146,10 @@ class PlanStep:
 class _Goal:
     xy_m: F64
     best_dist_m: float
+    """The least distance left to drive to it so far (along the path)."""
     since_progress_s: float = 0.0
+    kept: bool = False
+    """Kept until reached or given up: the robot turned away from it once before (``keep_returned``)."""
 
 
 @dataclass
@@ -208,6 +212,7 @@ class Explorer:
         self._since_plan_m = 0.0
         self._careful_m = 0.0
         self._goal: _Goal | None = None
+        self._left: list[F64] = []  # goals the robot turned away from before reaching or giving them up
         self._cpu_s = 0.0
         self.records: list[FrameRecord] = []
         self._sense()
@@ -266,7 +271,8 @@ class Explorer:
             self.blacklist.append(goal.xy_m.copy())  # a frontier still there after this is one it cannot see
         if not (self._path is None or reached or stuck or self._since_plan_m >= cfg.replan_m):
             return None
-        decision = self._plan(None if goal is None or reached or stuck else goal.xy_m)
+        decision = self._plan(None if goal is None or reached or stuck else goal.xy_m,
+                              goal is not None and goal.kept and not (reached or stuck))
         self.last_decision = decision
         self.plans.append(PlanStep.of(self.n_frames - 1, decision))
         if decision.choice is None or decision.path_m is None:
@@ -275,14 +281,17 @@ class Explorer:
             return decision
         goal_xy = decision.points.xy_m[decision.choice]
         if self._goal is None or np.hypot(*(goal_xy - self._goal.xy_m)) > cfg.goal_tolerance_m:
-            self._goal = _Goal(goal_xy.copy(), float(np.hypot(*(goal_xy - self.estimate[:2]))))
+            if self._goal is not None and not (reached or stuck):
+                self._left.append(self._goal.xy_m.copy())
+            back = cfg.keep_returned and any(np.hypot(*(goal_xy - g)) <= cfg.commit_m for g in self._left)
+            self._goal = _Goal(goal_xy.copy(), np.inf, kept=back)
         path = decision.path_m
         self._path = path if len(path) > 1 else np.concatenate([path, path])
         self._carrot = 0
         self._since_plan_m = 0.0
         return decision
 
-    def _plan(self, goal_xy_m: F64 | None) -> Decision:
+    def _plan(self, goal_xy_m: F64 | None, keep_goal: bool = False) -> Decision:
         t0 = time.process_time()
         if self.lineage is None:
             self.lineage, self._no_return_m = planning_lineage(self.slam)
@@ -296,7 +305,7 @@ class Explorer:
         if felt:
             view = replace(view, image=mark_contacts(view.image, view.grid, np.array(felt)))
         black = np.asarray(self.blacklist).reshape(-1, 2)
-        d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black, goal_xy_m)
+        d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black, goal_xy_m, keep_goal)
         return replace(d, cpu_s=time.process_time() - t0)
 
     def _move(self) -> None:
@@ -325,22 +334,43 @@ class Explorer:
         self.odom = integrate_odometry(self.odom, *noisy_motion(step[None], normals, self._bias, self.sim.odometry))[-1]
         self.truth = truth
         if self._goal is not None:
-            dist = float(np.hypot(*(self._goal.xy_m - self.estimate[:2])))
+            dist = self._to_goal_m()
             if dist < self._goal.best_dist_m - 0.1:
                 self._goal.best_dist_m, self._goal.since_progress_s = dist, 0.0
             else:
                 self._goal.since_progress_s += 1.0 / self.sim.scan_rate_hz
 
+    def _to_goal_m(self) -> float:
+        """How far the robot still has to drive to its goal: along its path from the carrot on (a path that leads
+        away from the goal first, around a wall, is progress too), straight where it has no path."""
+        assert self._goal is not None
+        if self._path is None:
+            return float(np.hypot(*(self._goal.xy_m - self.estimate[:2])))
+        rest = self._path[self._carrot :]
+        return float(np.hypot(*(rest[0] - self.estimate[:2])) + np.hypot(*np.diff(rest, axis=0).T).sum())
+
     def _back_off(self) -> F64:
-        """The true pose after a frame of reversing at half speed (a bumper's recovery: the same plan from the same
-        pose would drive into the same wall again); the pose unchanged where reversing brings no wall farther."""
-        back = drive(self.truth, -0.5 * self.sim.speed_m_s, 0.0, 1.0 / self.sim.scan_rate_hz)
+        """The true pose after a bumper's recovery (the same plan from the same pose would drive into the same
+        wall again): a frame of reversing at half speed where that brings no wall closer; else the move of a frame
+        (reversing or creeping forward, turning either way) that brings the walls farthest; where none brings them
+        farther (wedged between two), a frame of turning in place, so the next frame's moves point elsewhere."""
+        dt = 1.0 / self.sim.scan_rate_hz
+        v, w = 0.5 * self.sim.speed_m_s, self.sim.turn_rate_rad_s
         grid = self.raster.grid
-        now, to = grid.world_to_cell(self.truth[:2]), grid.world_to_cell(back[:2])
-        if grid.contains(to) and grid.contains(now) and self._clearance[to[0], to[1]] >= max(
-                self.sim.robot_radius_m, self._clearance[now[0], now[1]]):
-            return back
-        return self.truth.copy()
+
+        def room(pose: F64) -> float:
+            rc = grid.world_to_cell(pose[:2])
+            return float(self._clearance[rc[0], rc[1]]) if grid.contains(rc) else -1.0
+
+        now = room(self.truth)
+        ends = [drive(self.truth, a, b, dt) for a, b in ((-v, 0.0), (-v, w), (-v, -w), (v, w), (v, -w))]
+        rooms = [room(p) for p in ends]
+        if rooms[0] >= max(self.sim.robot_radius_m, now):
+            return ends[0]
+        best = int(np.argmax(rooms))
+        if rooms[best] > now and rooms[best] >= self.sim.robot_radius_m:
+            return ends[best]
+        return drive(self.truth, 0.0, w, dt)
 
     def _contact(self, blocked: F64) -> F64:
         """Where the robot, trying to move to the true pose ``blocked``, touches the wall (the nearest wall cell of

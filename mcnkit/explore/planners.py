@@ -235,12 +235,13 @@ class Decision:
 
 
 def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_radius_m: float,
-           blacklist_xy_m: F64, goal_xy_m: F64 | None = None) -> Decision:
+           blacklist_xy_m: F64, goal_xy_m: F64 | None = None, keep_goal: bool = False) -> Decision:
     """One planning step (see the module docstring); paths keep ``robot_radius_m + config.plan_margin_m`` from the
     map's walls, or only the radius when that leaves no frontier within reach (a door the map draws narrower than it
     is, a robot that drifted close to a wall).  With the current ``goal_xy_m`` and a planner that commits, the
     viewpoint nearest to it is kept when within ``config.commit_m`` (the planner still scores them all); with a
-    planner's ``keep_bonus``, it is kept unless another scores that share more."""
+    planner's ``keep_bonus``, it is kept unless another scores that share more; ``keep_goal`` keeps it as a
+    committing planner's is kept, whatever the planner (a goal the robot came back to, ``keep_returned``)."""
     t0 = time.process_time()
     frontiers = find_frontiers(view.image, view.grid, config)
     for margin in (config.plan_margin_m, 0.0):  # no frontier within reach: squeeze through with no margin
@@ -255,11 +256,12 @@ def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_ra
     if len(points):
         # best score; among equal scores the cheapest (points are sorted by cost, argmax takes the first)
         choice = int(np.argmax(score))
-        if goal_xy_m is not None and config.commit_m > 0 and (planner.commits or planner.keep_bonus > 0):
+        commits = planner.commits or keep_goal
+        if goal_xy_m is not None and config.commit_m > 0 and (commits or planner.keep_bonus > 0):
             d = np.hypot(*(points.xy_m - goal_xy_m).T)
             at_goal = int(np.argmin(d))
             if d[at_goal] <= config.commit_m:
-                if planner.commits:
+                if commits:
                     choice, kept = at_goal, True
                 elif score[at_goal] + planner.keep_bonus * abs(score[at_goal]) >= score[choice]:
                     choice, kept = at_goal, True

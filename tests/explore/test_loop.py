@@ -98,3 +98,82 @@ def test_a_wall_felt_but_not_seen_is_planned_around_not_driven_into(rooms: PlanR
                      low_obstacles=low)
     blind.run()
     assert blind.n_collisions > 20 * ex.n_collisions and blind.path_length_m > 2 * ex.path_length_m
+
+
+def dead_end(width_m: float, length_m: float = 4.0, cell_m: float = 0.05) -> PlanRaster:
+    """A corridor ``width_m`` wide along x in [0, ``length_m``) m, walled at both ends, with 1 m of wall around."""
+    from mcnkit.types import GridSpec
+
+    n, wall = round(length_m / cell_m), round(1.0 / cell_m)
+    grid = GridSpec(cell_m, -1.0, -1.0, n + 2 * wall, round(width_m / cell_m) + 2 * wall)
+    free = np.zeros(grid.shape, bool)
+    free[wall:-wall, wall:-wall] = True
+    return PlanRaster("dead-end", free, grid, np.zeros((0, 2)))
+
+
+class FickleEastWest:
+    """Scores the easternmost viewpoint best at one planning step and the westernmost at the next, as two far goals
+    of about equal worth whose scores the samples' noise swaps."""
+
+    name = "fickle"
+    commits = False
+    keep_bonus = 0.0
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def score(self, view, points, field):  # type: ignore[no-untyped-def]
+        self.calls += 1
+        x = points.xy_m[:, 0]
+        return np.zeros(len(points)), (x if self.calls % 2 else -x), None
+
+
+def test_a_goal_chosen_again_after_turning_away_from_it_is_kept_until_reached() -> None:
+    corridor = dead_end(1.5, length_m=16.0)  # the 3 m lidar sees a frontier down the corridor either way
+
+    def run(keep: bool) -> Explorer:
+        ex = Explorer(corridor, FickleEastWest(), ExploreConfig(budget_m=12.0, keep_returned=keep),
+                      sim=SHORT_SIGHTED, seed=3)
+        ex.run()
+        return ex
+
+    fickle, kept = run(False), run(True)
+    east = np.array([p.goal_xy_m[0] > fickle.records[0].truth[0] for p in fickle.plans[:8]])
+    assert np.all(east[1:] != east[:-1])  # without the rule it turns back at every planning step
+    assert fickle.stop_reason == "budget"
+    goals = np.array([p.goal_xy_m for p in kept.plans[:6]])
+    assert np.hypot(*(goals[3] - goals[2])) < 0.3  # the first goal, chosen again, is kept over the next step
+    assert kept.coverage > fickle.coverage + 0.15  # 0.73 against 0.47 of the corridor
+
+
+@pytest.mark.parametrize(("heading", "expect"), [(np.pi, "reverses"), (0.0, "creeps forward")])
+def test_a_bumper_recovery_moves_the_robot_away_from_the_wall_it_touched(heading: float, expect: str) -> None:
+    ex = Explorer(dead_end(0.7, cell_m=0.01), FrontierPlanner(), seed=0)  # cells finer than a frame's move
+    ex.truth = np.array([0.205, 0.35, heading])  # its disc (0.2 m) just clear of the closed end
+    pose = ex._back_off()
+    assert pose[0] > 0.205  # farther from the end wall, facing it (reversing) or facing away from it (forward)
+    if expect == "reverses":
+        assert abs(np.angle(np.exp(1j * (pose[2] - heading)))) < 1e-9  # straight back
+
+
+def test_a_robot_wedged_across_a_narrow_corridor_turns_in_place() -> None:
+    plan = dead_end(2.0, cell_m=0.01)
+    plan.free[145:300, 100:400] = False  # the first 3 m are 0.45 m wide, the last metre 2 m
+    ex = Explorer(plan, FrontierPlanner(), seed=0)
+    ex.truth = np.array([1.5, 0.225, np.pi / 2])  # across the narrow part: every move brings a wall closer
+    pose = ex._back_off()
+    np.testing.assert_allclose(pose[:2], ex.truth[:2])
+    assert pose[2] != pytest.approx(np.pi / 2)
+
+
+def test_progress_to_a_goal_is_measured_along_the_path_not_as_the_crow_flies(rooms: PlanRaster) -> None:
+    from mcnkit.explore.loop import _Goal
+
+    ex = Explorer(rooms, FrontierPlanner(), seed=3)
+    ex._goal = _Goal(np.array([3.0, 0.0]), np.inf)
+    ex._path = np.array([[0.0, 0.0], [0.0, 3.0], [3.0, 3.0], [3.0, 0.0]])  # around a wall between robot and goal
+    ex._carrot = 1
+    ex.estimate = np.array([0.0, 0.5, 0.0])
+    assert ex._to_goal_m() == pytest.approx(2.5 + 3.0 + 3.0)  # 3.04 m straight, which driving up the path lengthens
+    ex._path = None  # no path (after a collision): straight
+    assert ex._to_goal_m() == pytest.approx(np.hypot(3.0, 0.5))
