@@ -12,8 +12,8 @@ larger path budget.
 Reported per building and seed: the path to 50 / 80 / 90 % coverage of the reachable free space and the coverage at
 100 / 200 / 300 m (read off each run's coverage curve); over all runs, the paired saving at 90 % coverage where both
 planners got there, and the runs only one of them finished.  Writes ``explore_buildings.json``, ``.md`` and a plot of
-coverage against path length per building (``explore_buildings.png``) into ``benchmarks/results/``, and every run as it
-ends into ``explore_buildings.jsonl``:
+coverage against path length per building (``explore_buildings.png``) into ``benchmarks/results/``; every run is also
+written as it ends to ``runs.jsonl`` in ``--maps`` (a study cut short keeps them):
 
     .venv/bin/python -m benchmarks.studies.explore_buildings --maps /tmp/building-maps --jobs 2
     .venv/bin/python -m benchmarks.studies.explore_buildings --only intel aces --seeds 0 --budget-m 200
@@ -138,7 +138,7 @@ def main() -> None:
                  for n in names for seed in args.seeds for planner in ("frontier", "mcn")]
         rows = []
         futures = {pool.submit(run_task, task): task for task in tasks}
-        with args.out.with_suffix(".jsonl").open("w") as stream:  # every run as it ends: a cut-short study keeps them
+        with (args.maps / "runs.jsonl").open("w") as stream:
             for done in as_completed(futures):
                 row = done.result()
                 row.pop("window_probe", None)
