@@ -134,23 +134,22 @@ def main() -> None:
         plans = dict(zip(names, pool.map(make_map, names, [data] * len(names), [args.maps] * len(names)), strict=True))
         print(f"maps ready ({time.perf_counter() - t0:.0f} s): {', '.join(str(p) for p in plans.values())}", flush=True)
         explore = {"budget_m": args.budget_m, "stop_coverage": args.stop_coverage}
-        tasks = [Task(f"image:{plans[n]}", "buildings", planner, seed, args.model, explore=explore)
-                 for n in names for seed in args.seeds for planner in ("frontier", "mcn")]
+        futures = {pool.submit(run_task, Task(f"image:{plans[n]}", "buildings", planner, seed, args.model,
+                                              explore=explore)): n
+                   for n in names for seed in args.seeds for planner in ("frontier", "mcn")}
         rows = []
-        futures = {pool.submit(run_task, task): task for task in tasks}
         with (args.maps / "runs.jsonl").open("w") as stream:
             for done in as_completed(futures):
                 row = done.result()
                 row.pop("window_probe", None)
-                row["building"] = next(n for n in names if f"image:{plans[n]}" == futures[done].spec)
+                row["building"] = futures[done]
+                row["map"] = f"{row['building']}:{row['seed']}"  # paired() pairs runs by map: a building and seed
                 rows.append(row)
                 stream.write(json.dumps(row) + "\n")
                 stream.flush()
                 print(f"{row['building']:10s} seed {row['seed']} {row['planner']:8s} coverage {row['coverage']:.3f} "
                       f"path {row['path_length_m']:.1f} m, to 90 %: {row['path_to_coverage_m']['0.9']} "
                       f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    for r in rows:  # paired() pairs runs by their map: one map per building and seed
-        r["map"] = f"{r['building']}:{r['seed']}"
     summary = paired(rows, "mcn")
     md = table(rows)
     report = {"study": "explore_buildings", "budget_m": args.budget_m, "stop_coverage": args.stop_coverage,

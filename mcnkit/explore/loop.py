@@ -271,8 +271,7 @@ class Explorer:
             self.blacklist.append(goal.xy_m.copy())  # a frontier still there after this is one it cannot see
         if not (self._path is None or reached or stuck or self._since_plan_m >= cfg.replan_m):
             return None
-        decision = self._plan(None if goal is None or reached or stuck else goal.xy_m,
-                              goal is not None and goal.kept and not (reached or stuck))
+        decision = self._plan(None if reached or stuck else goal)
         self.last_decision = decision
         self.plans.append(PlanStep.of(self.n_frames - 1, decision))
         if decision.choice is None or decision.path_m is None:
@@ -291,7 +290,9 @@ class Explorer:
         self._since_plan_m = 0.0
         return decision
 
-    def _plan(self, goal_xy_m: F64 | None, keep_goal: bool = False) -> Decision:
+    def _plan(self, goal: _Goal | None) -> Decision:
+        """One planning step on the current map; ``goal`` is the goal still being driven to (None when there is none
+        or it was just reached or given up), which :func:`decide` keeps as its rules say."""
         t0 = time.process_time()
         if self.lineage is None:
             self.lineage, self._no_return_m = planning_lineage(self.slam)
@@ -305,7 +306,8 @@ class Explorer:
         if felt:
             view = replace(view, image=mark_contacts(view.image, view.grid, np.array(felt)))
         black = np.asarray(self.blacklist).reshape(-1, 2)
-        d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black, goal_xy_m, keep_goal)
+        d = decide(view, self.planner, self.config, self.sim.robot_radius_m, black,
+                   None if goal is None else goal.xy_m, goal is not None and goal.kept)
         return replace(d, cpu_s=time.process_time() - t0)
 
     def _move(self) -> None:
