@@ -29,6 +29,7 @@ Example:
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,7 +41,7 @@ from skimage.graph import MCP_Geometric
 from mcnkit.datasets.floorplans import generate_apartment, rasterize_apartment
 from mcnkit.datasets.houseexpo import FloorPlan, load_plan, rasterize_plan
 from mcnkit.datasets.houseexpo import houseexpo_source as find_houseexpo_source
-from mcnkit.datasets.images import read_occupancy_image
+from mcnkit.datasets.images import outside_walls, read_occupancy_image
 from mcnkit.geometry import compose, relative, wrap_angle
 from mcnkit.io import GroundTruthMap, LogContent, write_log
 from mcnkit.types import Frame, GridSpec, LidarSpec, Pose2D, Scan, Trajectory
@@ -153,7 +154,8 @@ def plan_raster(
 
     ``image:<file>``: a PNG/PGM occupancy image (dark = wall, light = free), its pixel size and origin from a ROS
     map_server YAML beside it, else ``resolution_m`` (:func:`mcnkit.datasets.images.read_occupancy_image`); it has
-    no room boxes (the exploration path's goals are its 3 m tiles).
+    no room boxes (the exploration path's goals are its 3 m tiles).  Light space outside the building's walls (a
+    plan drawn on a light background) is left out with a warning (:func:`mcnkit.datasets.images.outside_walls`).
 
     Raises:
         ValueError: a malformed spec, a missing HouseExpo archive, or an unknown/invalid plan id.
@@ -177,6 +179,12 @@ def plan_raster(
         if not arg:
             raise ValueError("image:FILE needs a PNG/PGM path")
         free, grid = read_occupancy_image(arg, resolution_m)
+        outside = outside_walls(free, grid.resolution_m)
+        if outside.any():
+            warnings.warn(f"{arg}: {outside.sum() * grid.resolution_m ** 2:.0f} m² of light space joined to the "
+                          "image's edge is outside the building's walls and not part of the plan (draw the edge dark "
+                          "to keep it)", stacklevel=2)
+            free = free & ~outside
         border = int(np.ceil(1.0 / grid.resolution_m))
         padded = np.pad(free, border, constant_values=False)
         g = GridSpec(grid.resolution_m, grid.origin_x_m - border * grid.resolution_m,

@@ -233,3 +233,23 @@ def test_image_plan_with_a_map_server_yaml(tmp_path: Path) -> None:
         plan_raster(f"image:{tmp_path / 'missing.png'}")
     with pytest.raises(ValueError, match="no free pixel"):
         plan_raster(f"image:{_image(tmp_path / 'black.png', np.zeros((5, 5)))}")
+
+
+def test_an_image_plan_on_a_light_background_is_its_inside(tmp_path: Path) -> None:
+    """A floor plan drawn black on white is white outside the building too: that space is left out (with a warning),
+    so the robot starts and drives inside, never round the outside walls."""
+    pixels = np.full((80, 100), 255, np.uint8)  # 10 × 8 m at 0.1 m
+    pixels[20:60, 20:80] = 0
+    pixels[21:59, 21:79] = 255  # a 5.8 × 3.8 m room, walls one pixel thick
+    pixels[59, 40:48] = 255  # its door, 0.8 m, to the outside
+    png = _image(tmp_path / "plan.png", pixels)
+    with pytest.warns(UserWarning, match="outside the building's walls"):
+        raster = plan_raster(f"image:{png}", 0.1)
+    border = 10
+    room = np.zeros((80, 100), bool)
+    room[21:59, 21:79] = True
+    inside = raster.free[border:-border, border:-border][::-1]  # back to image rows
+    assert not (inside & ~room).any() and inside[room].mean() > 0.97  # the room, but for its doorway
+    result = simulate(raster, SimConfig(max_duration_s=5.0), seed=3)
+    xy = result.ground_truth.poses[:, :2]
+    assert ((xy > [2.1, 2.1]) & (xy < [7.9, 5.9])).all()

@@ -9,6 +9,11 @@ Without a YAML the pixel size is the caller's and map_server's default threshold
 simulation only free pixels are free: unknown pixels count as walls.  Colour images are read as their luminance;
 transparent pixels count as unknown.
 
+A floor plan drawn on a light background (a CAD export, a scanned plan) is light outside the building too.  That
+space is not the building: :func:`outside_walls` finds it (the light space joined to the image's edge once the
+walls' gaps narrower than a door are closed) so a simulated robot starts inside and explores the rooms, not the
+street around them.  A map from a SLAM system has unknown space around it and nothing outside.
+
 Example:
     >>> free, grid = read_occupancy_image("lab.png", resolution_m=0.05)  # doctest: +SKIP
     >>> free.shape == grid.shape                                          # doctest: +SKIP
@@ -26,7 +31,7 @@ from numpy.typing import NDArray
 
 from mcnkit.types import GridSpec
 
-__all__ = ["MapYaml", "find_map_yaml", "read_map_yaml", "read_occupancy_image"]
+__all__ = ["MapYaml", "find_map_yaml", "outside_walls", "read_map_yaml", "read_occupancy_image"]
 
 BoolArray = NDArray[np.bool_]
 
@@ -110,3 +115,31 @@ def read_occupancy_image(path: str | os.PathLike[str], resolution_m: float = 0.0
                          f"{yaml_path or 'the map_server defaults'})")
     h, w = free.shape
     return free[::-1].copy(), GridSpec(meta.resolution_m, meta.origin_x_m, meta.origin_y_m, w, h)
+
+
+def outside_walls(free: BoolArray, resolution_m: float, door_m: float = 2.0) -> BoolArray:
+    """The free cells (H, W) of an image that lie outside the building it draws: the free space joined to the
+    image's edge without passing a gap in the walls narrower than ``door_m`` (a door, a window, a gate).
+
+    The gaps are told by the wall clearance: the places farther than ``door_m`` / 2 from every wall that the image's
+    edge reaches are outside, and so is every free cell within ``door_m`` / 2 of them by a path in free space (the
+    strip along the outer walls; a door's opening as far as that reaches, which seals it).  All False when the free
+    space does not reach the edge (a map from SLAM, a plan on a dark background) or when every free cell would be
+    outside (a plan cropped through its rooms: nothing can be told apart).  Gaps of ``door_m`` and wider (a garage
+    door, a wall that is not drawn) join the inside to the outside.
+    """
+    from scipy import ndimage
+
+    r_cells = 0.5 * door_m / resolution_m
+    pad = int(np.ceil(r_cells)) + 2  # an open ring around the image: the outside can always go round the building
+    open_ = np.pad(free, pad, constant_values=True)
+    far = ndimage.distance_transform_edt(open_) > r_cells  # farther than door_m / 2 from every wall
+    labels, _ = ndimage.label(far)  # 4-connected: a path never slips between two diagonal wall pixels
+    if labels[0, 0] == 0:
+        return np.zeros_like(free)
+    cross = ndimage.generate_binary_structure(2, 1)
+    outside = ndimage.binary_dilation(labels == labels[0, 0], cross, iterations=int(np.ceil(r_cells)), mask=open_)
+    outside = outside[pad:-pad, pad:-pad] & free
+    if not (free & ~outside).any():
+        return np.zeros_like(free)
+    return outside

@@ -89,7 +89,10 @@ def cmd_explore(args: argparse.Namespace) -> int:
                             "explore": dataclasses.asdict(explore_cfg), "gain": dataclasses.asdict(gain_cfg),
                             "slam": dataclasses.asdict(slam_cfg), "recording": dataclasses.asdict(recording)}
     t0 = time.perf_counter()
-    explorer = Explorer(raster, planner, explore_cfg, sim, slam_cfg, seed)
+    try:
+        explorer = Explorer(raster, planner, explore_cfg, sim, slam_cfg, seed)
+    except ValueError as err:  # a plan with no place the robot fits
+        return fail("explore", err)
     recorder = None
     if args.rrd is not None or live is not None:
         from mcnkit.viz.explore import ExploreRecorder
