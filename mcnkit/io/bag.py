@@ -5,7 +5,9 @@ Detection (each overridable in :func:`mcnkit.io.open_log`):
 * scan topic: the ``sensor_msgs/LaserScan`` topic named ``/scan``, else the one with the most messages;
 * odometry: the ``nav_msgs/Odometry`` topic named ``/odom``, else the busiest Odometry topic whose name does
   not look like ground truth; else the ``odom → base`` transform on ``/tf`` (``tf:<odom>-><base>``);
-* the laser's mount: the chain of ``/tf_static`` transforms from the base frame to the scan's ``frame_id``.
+* the laser's mount: the chain of ``/tf_static`` transforms (else of fixed ones on ``/tf``) from the base frame to the
+  scan's ``frame_id``, in 3-D: a scanner mounted upside down (its z axis pointing down) sweeps clockwise seen from
+  above, so its ranges are read in reverse and its angles mirrored, and the planar frames look like any other.
 
 Frames: scans and odometry are read together in record order; each scan's odometry is interpolated at the
 scan's header stamp between the two odometry poses around it.  Scans whose stamp went backwards, that have
@@ -33,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from mcnkit.geometry import compose, quaternion_to_yaw
+from mcnkit.geometry import quaternion_to_yaw
 from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
 from mcnkit.io.decode import MessageDecoder
 from mcnkit.io.errors import PARSE_ERRORS, LogError, as_log_error, warn_skipped
@@ -52,6 +54,17 @@ MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
 _GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
 _PENDING_NS = 10_000_000_000
 _SPEC_SCANS = 5  # the scanner is what most of the first scans say
+
+
+def _rotation(x: float, y: float, z: float, w: float) -> np.ndarray:
+    """The rotation matrix (3, 3) of a quaternion (normalised here; a zero one is the identity)."""
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if n == 0.0:
+        return np.eye(3)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def _pick(conns: list[TopicInfo], preferred: str) -> str | None:
@@ -83,6 +96,7 @@ class BagLog(LogReader):
         self._scan_topic = scan_topic or _pick(scans, "/scan")
         self._odom_source = self._detect_odom(odom)
         self._spec: LidarSpec | None = None
+        self._upside_down = False  # the scanner is mounted upside down: its ranges are read in reverse
 
     # -- detection ---------------------------------------------------------------------------------------
     def _detect_odom(self, override: str | None) -> str | None:
@@ -108,39 +122,62 @@ class BagLog(LogReader):
                 return
             yield item
 
-    def _static_transforms(self) -> dict[tuple[str, str], np.ndarray]:
-        out: dict[tuple[str, str], np.ndarray] = {}
-        for topic in [t.name for t in self._topics if t.msgtype in TF_TYPES and t.name == "/tf_static"]:
-            for _, msg in self.messages(topic):
+    def _mount_transforms(self) -> dict[tuple[str, str], tuple[np.ndarray, np.ndarray]]:
+        """(parent, child) -> (rotation (3, 3), translation (3,)) of every transform on ``/tf_static``, and of those
+        on ``/tf`` in its first messages that are not the odometry's or a map's (logs from before ``/tf_static``
+        broadcast the fixed mounts there)."""
+        out: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+        tf_topics = sorted((t.name for t in self._topics if t.msgtype in TF_TYPES), key=lambda n: n != "/tf_static")
+        for topic in tf_topics:
+            static = topic == "/tf_static"
+            for _, msg in (self.messages(topic) if static else self._take(topic, 200)):
                 for tr in msg.transforms:
+                    key = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+                    if not static and (key in out or any("odom" in f or "map" in f for f in key)):
+                        continue
                     q, p = tr.transform.rotation, tr.transform.translation
-                    yaw = float(quaternion_to_yaw(np.array([q.x, q.y, q.z, q.w])))
-                    out[(tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))] = np.array([p.x, p.y, yaw])
+                    out[key] = (_rotation(q.x, q.y, q.z, q.w), np.array([p.x, p.y, p.z], np.float64))
         return out
 
-    def _base_to_laser(self, laser_frame: str) -> Pose2D:
+    def _odometry_child(self) -> str | None:
+        """The base frame an Odometry topic names (its ``child_frame_id``), from its first readable message."""
+        if not self._odom_source or self._odom_source.startswith("tf:"):
+            return None
+        for conn, _, raw in self._src.messages([self._odom_source]):
+            try:
+                return self._decoder.odometry(raw, conn.encoding).child_frame_id.lstrip("/") or None
+            except PARSE_ERRORS:
+                continue
+        return None
+
+    def _base_to_laser(self, laser_frame: str) -> tuple[Pose2D, bool]:
+        """The scanner's mount in the plane, and whether it is mounted upside down (its z axis points down: its
+        beams sweep clockwise seen from above)."""
+        tfs = self._mount_transforms() if laser_frame else {}
+        if not tfs:
+            return Pose2D(), False
         base = self._odom_source.split("->")[1] if self._odom_source and "->" in self._odom_source else None
-        static = self._static_transforms()
-        if not static or not laser_frame:
-            return Pose2D()
-        if base is None:  # odometry topic: its child frame is the base
-            base = next((p for (p, c) in static if c == laser_frame), None)
+        if base is None:  # odometry topic: its child frame is the base, else the laser's parent
+            base = self._odometry_child()
+            if base is None or not any(base in key for key in tfs):
+                base = next((p for (p, c) in tfs if c == laser_frame), None)
             if base is None:
-                return Pose2D()
-        children: dict[str, list[tuple[str, np.ndarray]]] = {}
-        for (p, c), tf in static.items():
+                return Pose2D(), False
+        children: dict[str, list[tuple[str, tuple[np.ndarray, np.ndarray]]]] = {}
+        for (p, c), tf in tfs.items():
             children.setdefault(p, []).append((c, tf))
-        stack: list[tuple[str, np.ndarray]] = [(base, np.zeros(3))]
+        stack: list[tuple[str, np.ndarray, np.ndarray]] = [(base, np.eye(3), np.zeros(3))]
         seen = {base}
         while stack:
-            frame, pose = stack.pop()
+            frame, rot, trans = stack.pop()
             if frame == laser_frame:
-                return Pose2D.from_array(pose)
-            for child, tf in children.get(frame, []):
+                yaw = math.atan2(rot[1, 0], rot[0, 0])  # where the scanner's x axis points in the plane
+                return Pose2D(float(trans[0]), float(trans[1]), yaw), bool(rot[2, 2] < 0)
+            for child, (r, t) in children.get(frame, []):
                 if child not in seen:
                     seen.add(child)
-                    stack.append((child, compose(pose, tf)))
-        return Pose2D()
+                    stack.append((child, rot @ r, trans + rot @ t))
+        return Pose2D(), False
 
     # -- LogReader ----------------------------------------------------------------------------------------
     @property
@@ -201,7 +238,11 @@ class BagLog(LogReader):
                     raise LogError(self.path, f"implausible scanner: {problems[0]}")
                 raise LogError(self.path, f"LaserScan topic {topic} has no (readable) messages")
             key = seen.most_common(1)[0][0]
-            self._spec = check_spec(self.path, LidarSpec(*key[:5], self._base_to_laser(key[5])))
+            mount, self._upside_down = self._base_to_laser(key[5])
+            amin, inc, n = key[:3]
+            if self._upside_down:  # beam i at −(amin + i·inc): the reversed scan starts at −angle_max
+                amin = -(amin + (n - 1) * inc)
+            self._spec = check_spec(self.path, LidarSpec(amin, inc, n, *key[3:5], mount))
         return self._spec
 
     def time_range_ns(self) -> tuple[int, int]:
@@ -238,7 +279,7 @@ class BagLog(LogReader):
             s = self._decoder.scan(raw, conn.encoding)
         except PARSE_ERRORS:
             return None
-        return s.stamp_ns or t, s.ranges_m
+        return s.stamp_ns or t, s.ranges_m[::-1].copy() if self._upside_down else s.ranges_m
 
     def _decoded_odom(self, conn: Connection, t: int, raw: bytes | memoryview) -> list[tuple[int, float, float, float]] | None:
         try:
