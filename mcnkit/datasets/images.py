@@ -4,7 +4,8 @@
 The YAML (``<image stem>.yaml`` next to the image, or any YAML whose ``image:`` names it) gives ``resolution``,
 ``origin`` ``[x, y, yaw]`` (the lower-left pixel's corner; a yaw is not supported), ``negate``,
 ``occupied_thresh`` and ``free_thresh`` with map_server's meaning: a pixel's occupancy is ``p = (255 − v) / 255``
-(``v / 255`` when negated); free below ``free_thresh``, occupied above ``occupied_thresh``, unknown between.
+(``v / 255`` when negated; ``v / 100`` in ``mode: raw``, values above 100 unknown); free below ``free_thresh``,
+occupied above ``occupied_thresh``, unknown between.
 Without a YAML the pixel size is the caller's and map_server's default thresholds (0.196 / 0.65) apply.  For
 simulation only free pixels are free: unknown pixels count as walls.  Colour images are read as their luminance;
 transparent pixels count as unknown.
@@ -46,6 +47,8 @@ class MapYaml:
     negate: bool = False
     occupied_thresh: float = 0.65
     free_thresh: float = 0.196
+    raw: bool = False
+    """``mode: raw``: a pixel's value is its occupancy in percent (0-100; above 100 unknown), no thresholds' scale."""
 
 
 def read_map_yaml(path: str | os.PathLike[str]) -> MapYaml:
@@ -61,9 +64,12 @@ def read_map_yaml(path: str | os.PathLike[str]) -> MapYaml:
     try:
         origin = [float(v) for v in doc.get("origin", [0.0, 0.0, 0.0])]
         out = MapYaml(float(doc["resolution"]), origin[0], origin[1], bool(int(doc.get("negate", 0))),
-                      float(doc.get("occupied_thresh", 0.65)), float(doc.get("free_thresh", 0.196)))
+                      float(doc.get("occupied_thresh", 0.65)), float(doc.get("free_thresh", 0.196)),
+                      str(doc.get("mode", "trinary")) == "raw")
     except (TypeError, ValueError, IndexError):
         raise ValueError(f"{path}: malformed resolution, origin, negate or thresholds") from None
+    if str(doc.get("mode", "trinary")) not in ("trinary", "scale", "raw"):
+        raise ValueError(f"{path}: unknown mode {doc['mode']!r} (trinary, scale or raw)")
     if len(origin) > 2 and abs(origin[2]) > 1e-9:
         raise ValueError(f"{path}: a rotated map origin (yaw {origin[2]}) is not supported")
     if not out.resolution_m > 0:
@@ -106,7 +112,10 @@ def read_occupancy_image(path: str | os.PathLike[str], resolution_m: float = 0.0
             gray = np.asarray(img.convert("L"), np.float64)
     except (OSError, UnidentifiedImageError, ValueError) as e:
         raise ValueError(f"{image_path}: not a readable occupancy image ({e})") from None
-    occupancy = gray / 255.0 if meta.negate else (255.0 - gray) / 255.0
+    if meta.raw:  # the value is the occupancy in percent; above 100 (255: -1 as a byte) unknown
+        occupancy = np.where(gray <= 100, gray / 100.0, 0.5 * (meta.free_thresh + meta.occupied_thresh))
+    else:
+        occupancy = gray / 255.0 if meta.negate else (255.0 - gray) / 255.0
     free = occupancy < meta.free_thresh
     if alpha is not None:
         free &= alpha > 0

@@ -1,10 +1,15 @@
-"""Floor plans as occupancy images: what lies outside the building a plan draws on a light background."""
+"""Floor plans as occupancy images: map_server's modes, and what lies outside the building a plan draws on a light
+background."""
 
 from __future__ import annotations
 
-import numpy as np
+from pathlib import Path
 
-from mcnkit.datasets.images import outside_walls
+import numpy as np
+import pytest
+from PIL import Image
+
+from mcnkit.datasets.images import outside_walls, read_occupancy_image
 
 RES_M = 0.05
 
@@ -57,3 +62,17 @@ def test_a_plan_cropped_through_its_rooms_keeps_everything() -> None:
     free = np.ones((100, 100), bool)  # free space to every edge: no wall says where the inside is
     free[40:60, 20:80] = False
     assert not outside_walls(free, RES_M).any()
+
+
+def test_a_raw_mode_map_reads_its_values_as_occupancy_in_percent(tmp_path: Path) -> None:
+    """nav2's ``mode: raw``: 0 free, 100 occupied, 255 (-1) unknown, no 255-scale."""
+    pixels = np.full((10, 12), 255, np.uint8)
+    pixels[2:8, 2:10] = 100
+    pixels[3:7, 3:9] = 0
+    Image.fromarray(pixels).save(tmp_path / "raw.pgm")
+    (tmp_path / "raw.yaml").write_text("image: raw.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nmode: raw\n")
+    free, grid = read_occupancy_image(tmp_path / "raw.pgm")
+    assert grid.resolution_m == 0.1 and free.sum() == 4 * 6 and free[::-1][3:7, 3:9].all()
+    (tmp_path / "raw.yaml").write_text("image: raw.pgm\nresolution: 0.1\nmode: bitmap\n")
+    with pytest.raises(ValueError, match="unknown mode 'bitmap'"):
+        read_occupancy_image(tmp_path / "raw.pgm")
