@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,6 +56,7 @@ from mcnkit.slam.refine import REFINE_RANGE_M, refine_poses
 from mcnkit.slam.resample import effective_sample_size, low_variance_resample, normalize_log_weights
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.slam.scanmotion import MotionGuess, MotionPrior, motion_covariance, sample_increments
+from mcnkit.slam.selfhits import SelfHits
 from mcnkit.slam.widesearch import tracking_grid, unknown_motion_match, wide_match
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
@@ -141,6 +142,8 @@ class FastSlam:
                                  np.array([config.motion.unknown_window_m / 3] * 2 + [config.motion.unknown_window_rad / 3]),
                                  np.array([config.motion.prior_min_sigma_m] * 2 + [config.motion.prior_min_sigma_rad]))
         """The robot's recent tracked motion: what a scan's motion is searched around where no odometry gives it."""
+        self.self_hits = SelfHits(config.matching.self_hit_m, config.matching.self_hit_tolerance_m)
+        """The robot's own returns (``MatchingConfig.self_hit_m``), dropped from every scan before it is used."""
         self._last_odom = np.zeros(3)
         self._linear_m = 0.0
         self._angular_rad = 0.0
@@ -201,6 +204,16 @@ class FastSlam:
                 f"none the filter could use ({self.n_unknown_motion} missing in the log, {self.n_odometry_rejected} "
                 "contradicted by the scans): their motion was found from the scans alone")
 
+    def self_hit_note(self) -> str | None:
+        """One line on the returns of the robot's own body that were dropped, or None when there were none."""
+        beams = self.self_hits.beams
+        if not self.self_hits.n_dropped:
+            return None
+        listed = ", ".join(str(b) for b in beams[:8]) + (", ..." if len(beams) > 8 else "")
+        return (f"the robot's own body: {len(beams)} beams ({listed}) return within {self.config.matching.self_hit_m:g} m "
+                f"at one range while it moves; {self.self_hits.n_dropped} such returns were dropped "
+                "(--slam.matching.self-hit-m 0 keeps them)")
+
     @property
     def best_index(self) -> int:
         """Particle with the highest log-likelihood summed over its ancestry."""
@@ -234,6 +247,10 @@ class FastSlam:
         cfg = self.config
         if self._lidar is None:
             self._lidar = frame.scan.spec
+        if cfg.matching.self_hit_m > 0:
+            moved = self._last_motion  # over the previous step: this one's is found below, from the filtered scan
+            ranges = self.self_hits.filter(frame.scan.ranges_m, math.hypot(moved[0], moved[1]), abs(float(moved[2])))
+            frame = replace(frame, scan=replace(frame.scan, ranges_m=ranges))
         first = self.n_scans == 0
         known = frame.odom_known and cfg.motion.odometry == "use"
         # ignored odometry stays frozen where the first scan was (nothing of it reaches the filter)

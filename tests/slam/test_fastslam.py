@@ -30,9 +30,10 @@ WALLS = np.array(
 )
 
 
-def cast(pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Ranges (181,) from ``pose`` to the nearest wall segment, with 1 cm noise; > 10 m is no return."""
-    a = pose[2] + LIDAR.angles_rad
+def cast(pose: np.ndarray, rng: np.random.Generator, spec: LidarSpec = LIDAR) -> np.ndarray:
+    """Ranges (B,) of ``spec`` from ``pose`` to the nearest wall segment, with 1 cm noise; beyond its range is no
+    return."""
+    a = pose[2] + spec.angles_rad
     d = np.stack([np.cos(a), np.sin(a)], axis=1)[:, None, :]  # (M, 1, 2)
     p, q = WALLS[None, :, :2], WALLS[None, :, 2:]
     e = q - p
@@ -43,7 +44,7 @@ def cast(pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         s = (ao[..., 0] * d[..., 1] - ao[..., 1] * d[..., 0]) / den
     t = np.where((t > 0) & (s >= 0) & (s <= 1) & np.isfinite(t), t, np.inf)
     r = t.min(axis=1) + rng.normal(0, 0.01, len(a))
-    return np.where(r > LIDAR.range_max_m, np.inf, r).astype(np.float32)
+    return np.where(r > spec.range_max_m, np.inf, r).astype(np.float32)
 
 
 def true_path() -> np.ndarray:
