@@ -108,6 +108,51 @@ def plot(rows: list[dict[str, Any]], path: Path, budget_m: float) -> None:
     plt.close(fig)
 
 
+def run_plans(pool: ProcessPoolExecutor, domain: str, plans: dict[str, str], seeds: list[int], model: str,
+              explore: dict[str, Any], stream_path: Path, t0: float) -> list[dict[str, Any]]:
+    """Both planners on every plan (name -> map spec) and seed, as ``bench_explore`` runs a house (with ``explore``
+    over its settings); each run, as it ends, printed and written to ``stream_path`` (JSON lines)."""
+    futures = {pool.submit(run_task, Task(spec, domain, planner, seed, model, explore=explore)): name
+               for name, spec in plans.items() for seed in seeds for planner in ("frontier", "mcn")}
+    rows = []
+    with stream_path.open("w") as stream:
+        for done in as_completed(futures):
+            row = done.result()
+            row.pop("window_probe", None)
+            row["building"] = futures[done]
+            row["map"] = f"{row['building']}:{row['seed']}"  # paired() pairs runs by map: a building and seed
+            rows.append(row)
+            stream.write(json.dumps(row) + "\n")
+            stream.flush()
+            print(f"{row['building']:15s} seed {row['seed']} {row['planner']:8s} coverage {row['coverage']:.3f} "
+                  f"path {row['path_length_m']:.1f} m, to 90 %: {row['path_to_coverage_m']['0.9']} "
+                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
+    return rows
+
+
+def write_report(rows: list[dict[str, Any]], out: Path, budget_m: float, header: dict[str, Any], t0: float) -> None:
+    """Writes the study's JSON report (``header``, the paired saving at 90 %, the mean coverage at ``READ_AT_M``,
+    the wall time since ``t0`` and every run), its table (``.md``) and plot (``.png``) beside it, and prints them."""
+    summary = paired(rows, "mcn")
+    report = {**header, "paired_90": summary,
+              "coverage_at_m": {p: {f"{a:.0f}": float(np.mean([coverage_read(r, a) for r in rows if r["planner"] == p]))
+                                    for a in READ_AT_M} for p in ("frontier", "mcn")},
+              "wall_s": time.perf_counter() - t0, "runs": rows}
+    out.write_text(json.dumps(report, indent=1))
+    md = table(rows)
+    out.with_suffix(".md").write_text(md + "\n")
+    plot(rows, out.with_suffix(".png"), budget_m)
+    print(md)
+    print(f"mean coverage at {', '.join(f'{a:.0f}' for a in READ_AT_M)} m: " + "; ".join(
+        f"{p} " + " / ".join(f"{100 * v:.0f} %" for v in report["coverage_at_m"][p].values()) for p in report["coverage_at_m"]))
+    if "saving" in summary:
+        print(f"path to 90 %, {summary['both_finished']} runs both finished: frontier {summary['mean_frontier_m']:.1f} m, "
+              f"mcn {summary['mean_other_m']:.1f} m, saving {100 * summary['saving']:.1f} % "
+              f"(95 % CI {100 * summary['saving_ci95'][0]:.1f} to {100 * summary['saving_ci95'][1]:.1f} %)")
+    print(f"only frontier reached 90 %: {summary['only_frontier_finished']}; only mcn: {summary['only_other_finished']}")
+    print(f"wall {report['wall_s']:.0f} s -> {out}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--maps", type=Path, default=Path("/tmp/mcnkit-building-maps"),
@@ -133,43 +178,11 @@ def main() -> None:
     with ProcessPoolExecutor(max(1, args.jobs)) as pool:
         plans = dict(zip(names, pool.map(make_map, names, [data] * len(names), [args.maps] * len(names)), strict=True))
         print(f"maps ready ({time.perf_counter() - t0:.0f} s): {', '.join(str(p) for p in plans.values())}", flush=True)
-        explore = {"budget_m": args.budget_m, "stop_coverage": args.stop_coverage}
-        futures = {pool.submit(run_task, Task(f"image:{plans[n]}", "buildings", planner, seed, args.model,
-                                              explore=explore)): n
-                   for n in names for seed in args.seeds for planner in ("frontier", "mcn")}
-        rows = []
-        with (args.maps / "runs.jsonl").open("w") as stream:
-            for done in as_completed(futures):
-                row = done.result()
-                row.pop("window_probe", None)
-                row["building"] = futures[done]
-                row["map"] = f"{row['building']}:{row['seed']}"  # paired() pairs runs by map: a building and seed
-                rows.append(row)
-                stream.write(json.dumps(row) + "\n")
-                stream.flush()
-                print(f"{row['building']:10s} seed {row['seed']} {row['planner']:8s} coverage {row['coverage']:.3f} "
-                      f"path {row['path_length_m']:.1f} m, to 90 %: {row['path_to_coverage_m']['0.9']} "
-                      f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    summary = paired(rows, "mcn")
-    md = table(rows)
-    report = {"study": "explore_buildings", "budget_m": args.budget_m, "stop_coverage": args.stop_coverage,
-              "model": args.model, "seeds": args.seeds, "paired_90": summary,
-              "coverage_at_m": {p: {f"{a:.0f}": float(np.mean([coverage_read(r, a) for r in rows if r["planner"] == p]))
-                                    for a in READ_AT_M} for p in ("frontier", "mcn")},
-              "wall_s": time.perf_counter() - t0, "runs": rows}
-    args.out.write_text(json.dumps(report, indent=1))
-    args.out.with_suffix(".md").write_text(md + "\n")
-    plot(rows, args.out.with_suffix(".png"), args.budget_m)
-    print(md)
-    print(f"mean coverage at {', '.join(f'{a:.0f}' for a in READ_AT_M)} m: " + "; ".join(
-        f"{p} " + " / ".join(f"{100 * v:.0f} %" for v in report["coverage_at_m"][p].values()) for p in report["coverage_at_m"]))
-    if "saving" in summary:
-        print(f"path to 90 %, {summary['both_finished']} runs both finished: frontier {summary['mean_frontier_m']:.1f} m, "
-              f"mcn {summary['mean_other_m']:.1f} m, saving {100 * summary['saving']:.1f} % "
-              f"(95 % CI {100 * summary['saving_ci95'][0]:.1f} to {100 * summary['saving_ci95'][1]:.1f} %)")
-    print(f"only frontier reached 90 %: {summary['only_frontier_finished']}; only mcn: {summary['only_other_finished']}")
-    print(f"wall {report['wall_s']:.0f} s -> {args.out}")
-
+        rows = run_plans(pool, "buildings", {n: f"image:{plans[n]}" for n in names}, args.seeds, args.model,
+                         {"budget_m": args.budget_m, "stop_coverage": args.stop_coverage}, args.maps / "runs.jsonl", t0)
+    write_report(rows, args.out, args.budget_m, {"study": "explore_buildings", "budget_m": args.budget_m,
+                                                 "stop_coverage": args.stop_coverage, "model": args.model,
+                                                 "seeds": args.seeds}, t0)
 
 if __name__ == "__main__":
     main()
