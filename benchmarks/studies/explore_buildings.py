@@ -153,22 +153,28 @@ def write_report(rows: list[dict[str, Any]], out: Path, budget_m: float, header:
     print(f"wall {report['wall_s']:.0f} s -> {out}")
 
 
+def add_run_options(ap: argparse.ArgumentParser, seeds: list[int], report: str) -> None:
+    """The options of a study's runs and report: ``--seeds`` (default ``seeds``), ``--budget-m``,
+    ``--stop-coverage``, ``--model``, ``--jobs``, ``--out`` (default ``benchmarks/results/REPORT``)."""
+    ap.add_argument("--seeds", nargs="+", type=int, default=seeds, help="exploration seeds: start pose and noise "
+                                                                        f"(default {' '.join(map(str, seeds))})")
+    ap.add_argument("--budget-m", type=float, default=300.0, help="path budget of a run [m] (default 300)")
+    ap.add_argument("--stop-coverage", type=float, default=0.95, help="end a run at this coverage (default 0.95)")
+    ap.add_argument("--model", default="sampler-explore", help="completion model of mcn (default sampler-explore)")
+    ap.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes; default 1)")
+    ap.add_argument("--out", type=Path, default=RESULTS / report,
+                    help=f"the JSON report; the table (.md) and plot (.png) go beside it (default "
+                         f"benchmarks/results/{report})")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--maps", type=Path, default=Path("/tmp/mcnkit-building-maps"),
                     help="where the buildings' SLAM maps are made and reused (default /tmp/mcnkit-building-maps)")
     ap.add_argument("--only", nargs="+", choices=INDOOR, help="a subset of the buildings (default: all of them)")
-    ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1], help="exploration seeds: start pose and noise "
-                                                                          "(default 0 1)")
-    ap.add_argument("--budget-m", type=float, default=300.0, help="path budget of a run [m] (default 300)")
-    ap.add_argument("--stop-coverage", type=float, default=0.95, help="end a run at this coverage (default 0.95)")
-    ap.add_argument("--model", default="sampler-explore", help="completion model of mcn (default sampler-explore)")
     ap.add_argument("--data", default=None, help="the shared data folder (default: $MCNKIT_SHARED_DATA, else "
                                                  "../shared/data)")
-    ap.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes; default 1)")
-    ap.add_argument("--out", type=Path, default=RESULTS / "explore_buildings.json",
-                    help="the JSON report; the table (.md) and plot (.png) go beside it "
-                         "(default benchmarks/results/explore_buildings.json)")
+    add_run_options(ap, [0, 1], "explore_buildings.json")
     args = ap.parse_args()
     t0 = time.perf_counter()
     names = list(args.only or INDOOR)

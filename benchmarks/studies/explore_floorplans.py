@@ -26,8 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import RESULTS
-from benchmarks.studies.explore_buildings import run_plans, write_report
+from benchmarks.studies.explore_buildings import add_run_options, run_plans, write_report
 
 PIXEL_M = 0.1
 """The KTH plans' pixel size in MapEx (``pixel_per_meter: 10`` in its configuration)."""
@@ -54,15 +53,7 @@ def main() -> None:
     ap.add_argument("--maps", type=Path, default=Path("/tmp/mcnkit-floorplans"),
                     help="where the plans are written as PNG + YAML (default /tmp/mcnkit-floorplans)")
     ap.add_argument("--only", nargs="+", metavar="NAME", help="a subset of the plans, by folder name (default: all)")
-    ap.add_argument("--seeds", nargs="+", type=int, default=[0], help="exploration seeds: start pose and noise "
-                                                                       "(default 0)")
-    ap.add_argument("--budget-m", type=float, default=300.0, help="path budget of a run [m] (default 300)")
-    ap.add_argument("--stop-coverage", type=float, default=0.95, help="end a run at this coverage (default 0.95)")
-    ap.add_argument("--model", default="sampler-explore", help="completion model of mcn (default sampler-explore)")
-    ap.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes; default 1)")
-    ap.add_argument("--out", type=Path, default=RESULTS / "explore_floorplans.json",
-                    help="the JSON report; the table (.md) and plot (.png) go beside it "
-                         "(default benchmarks/results/explore_floorplans.json)")
+    add_run_options(ap, [0], "explore_floorplans.json")
     args = ap.parse_args()
     t0 = time.perf_counter()
     found = sorted(args.plans.glob("*/occ_map.npy"))
