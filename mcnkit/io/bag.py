@@ -10,8 +10,10 @@ Detection (each overridable in :func:`mcnkit.io.open_log`):
   above, so its ranges are read in reverse and its angles mirrored, and the planar frames look like any other.
 
 Frames: scans and odometry are read together in record order; each scan's odometry is interpolated at the
-scan's header stamp between the two odometry poses around it.  Scans whose stamp went backwards, that have
-a different beam count, or a header stamp far from their record time (:mod:`mcnkit.io.stampcheck`: one stamp
+scan's header stamp between the two odometry poses around it.  A scan of another beam count or angles than the
+scanner's (drivers of many 360° scanners change them every turn) is resampled onto its beams
+(:func:`resample_beams`) and counted in one warning.  Scans whose stamp went backwards or whose header stamp is far
+from their record time (:mod:`mcnkit.io.stampcheck`: one stamp
 that jumped is dropped before it can hold up the scans behind it or make later odometry look as if it went
 backwards) are skipped and counted in the one warning of :func:`mcnkit.io.plausible.plausible_frames`, which then
 checks that every frame is physically plausible.
@@ -44,7 +46,7 @@ from mcnkit.io.sources import Connection, RawSource
 from mcnkit.io.stampcheck import StampCheck
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
 
-__all__ = ["BagLog"]
+__all__ = ["BagLog", "resample_beams"]
 
 SCAN_TYPE = "sensor_msgs/msg/LaserScan"
 ODOM_TYPE = "nav_msgs/msg/Odometry"
@@ -54,6 +56,29 @@ MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
 _GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
 _PENDING_NS = 10_000_000_000
 _SPEC_SCANS = 5  # the scanner is what most of the first scans say
+
+
+def resample_beams(ranges_m: np.ndarray, angle_min_rad: float, angle_increment_rad: float,
+                   angles_rad: np.ndarray) -> np.ndarray:
+    """A scan's readings (n,) at its own angles, put on other beam ``angles_rad`` (B,): each takes the reading of the
+    beam nearest in angle (round the circle), within half a step of the coarser of the two; none that near: NaN
+    (no return).  Readings are copied, never interpolated."""
+    r = np.asarray(ranges_m, np.float32)
+    n = len(r)
+    if n == 0:
+        return np.full(len(angles_rad), np.nan, np.float32)
+    amin, inc = float(angle_min_rad), float(angle_increment_rad)
+    if inc < 0:  # a clockwise scan, counter-clockwise from its last beam
+        r, amin, inc = r[::-1], amin + (n - 1) * inc, -inc
+    d = np.mod(np.asarray(angles_rad, np.float64) - amin, 2 * math.pi)  # [0, 2π) past the first beam
+    last = np.minimum(np.rint(d / inc), n - 1).astype(np.int64) if inc > 0 else np.zeros(len(d), np.int64)
+    err_last = np.abs(d - last * inc)
+    err_first = 2 * math.pi - d  # round the circle to the first beam
+    first = err_first < err_last
+    index, err = np.where(first, 0, last), np.where(first, err_first, err_last)
+    step = np.abs(np.diff(angles_rad)).min(initial=inc) if len(angles_rad) > 1 else inc
+    out: np.ndarray = np.where(err <= 0.5 * max(inc, float(step)) + 1e-9, r[index], np.nan).astype(np.float32)
+    return out
 
 
 def _rotation(x: float, y: float, z: float, w: float) -> np.ndarray:
@@ -97,6 +122,8 @@ class BagLog(LogReader):
         self._odom_source = self._detect_odom(odom)
         self._spec: LidarSpec | None = None
         self._upside_down = False  # the scanner is mounted upside down: its ranges are read in reverse
+        self._geometry: tuple[float, float, int] | None = None  # the scanner's (angle_min, increment, beams) as logged
+        self._resampled = 0  # scans of another geometry put on it (resample_beams)
 
     # -- detection ---------------------------------------------------------------------------------------
     def _detect_odom(self, override: str | None) -> str | None:
@@ -240,6 +267,7 @@ class BagLog(LogReader):
             key = seen.most_common(1)[0][0]
             mount, self._upside_down = self._base_to_laser(key[5])
             amin, inc, n = key[:3]
+            self._geometry = (amin, inc, n)
             if self._upside_down:  # beam i at −(amin + i·inc): the reversed scan starts at −angle_max
                 amin = -(amin + (n - 1) * inc)
             self._spec = check_spec(self.path, LidarSpec(amin, inc, n, *key[3:5], mount))
@@ -275,11 +303,21 @@ class BagLog(LogReader):
             yield from self._frames(skipped)
 
     def _decoded_scan(self, conn: Connection, t: int, raw: bytes | memoryview) -> tuple[int, np.ndarray] | None:
+        """A scan's stamp and readings on the scanner's beams: one of another beam count or angles (a driver that
+        does not keep them constant, as many 360° scanners' do not) is resampled onto them (once the scanner is
+        known), and an upside-down scanner's readings are reversed."""
         try:
             s = self._decoder.scan(raw, conn.encoding)
         except PARSE_ERRORS:
             return None
-        return s.stamp_ns or t, s.ranges_m[::-1].copy() if self._upside_down else s.ranges_m
+        ranges = s.ranges_m
+        if self._geometry is not None:
+            amin, inc, n = self._geometry
+            far_end = (len(ranges) - 1) * s.angle_increment_rad - (n - 1) * inc
+            if len(ranges) != n or abs(s.angle_min_rad - amin) > abs(inc) / 4 or abs(far_end) > abs(inc) / 4:
+                ranges = resample_beams(ranges, s.angle_min_rad, s.angle_increment_rad, amin + inc * np.arange(n))
+                self._resampled += 1
+        return s.stamp_ns or t, ranges[::-1].copy() if self._upside_down else ranges
 
     def _decoded_odom(self, conn: Connection, t: int, raw: bytes | memoryview) -> list[tuple[int, float, float, float]] | None:
         try:
@@ -307,6 +345,7 @@ class BagLog(LogReader):
             return
         odom_topic = "/tf" if self.odom_source.startswith("tf:") else self.odom_source
         scan_check, odom_check = self._stamp_checks(scan_topic, odom_topic)
+        self._resampled = 0  # the stamp checks read a few scans ahead
         odom_t: deque[int] = deque(maxlen=256)
         odom_p: deque[tuple[float, float, float]] = deque(maxlen=256)
         pending: deque[tuple[int, np.ndarray, int]] = deque()  # (stamp, ranges, record time)
@@ -354,6 +393,13 @@ class BagLog(LogReader):
         if unknown:
             warn_skipped(self.path, f"no odometry within {self._max_gap_ns / 1e9:g} s of {unknown} of {frames} scans "
                                     "(or just after such a stretch): read as unknown motion")
+        self._warn_resampled()
+
+    def _warn_resampled(self) -> None:
+        if self._resampled:
+            warn_skipped(self.path, f"{self._resampled} scans of another beam count or angles than the scanner's "
+                                    f"{self.lidar_spec.n_beams} beams: resampled onto them by angle")
+            self._resampled = 0
 
     def _odometry_at(self, stamp: int, odom_t: deque[int], odom_p: deque[tuple[float, float, float]]
                      ) -> tuple[float, float, float] | None:
@@ -398,10 +444,12 @@ class BagLog(LogReader):
         for conn, t, raw in self._src.messages([scan_topic]):
             if (s := self._decoded_scan(conn, t, raw)) is not None and check.seed(s[0] - t):
                 break
+        self._resampled = 0
         origin = Pose2D()
         for conn, t, raw in self._src.messages([scan_topic]):
             if (s := self._scan_ok(conn, t, raw, spec.n_beams, check, skipped)) is not None:
                 yield Frame(s[0], Scan(s[1], spec), origin, False)
+        self._warn_resampled()
 
     def ground_truth(self) -> Trajectory | None:
         """Poses from a topic whose name says ground truth (Odometry or PoseStamped)."""
