@@ -11,7 +11,8 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
-from mcnkit.io import open_log
+from mcnkit.io import LogWarning, open_log
+from mcnkit.types import Pose2D
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
@@ -49,9 +50,10 @@ def _range_to_room(origin: np.ndarray, angles: np.ndarray) -> np.ndarray:
     return np.minimum(np.where(dx == 0, np.inf, tx), np.where(dy == 0, np.inf, ty))
 
 
-def write_mounted_bag(path: Path, mount_topic: str, upside_down: bool) -> tuple[np.ndarray, float]:
+def write_mounted_bag(path: Path, mount_topic: str | None, upside_down: bool) -> tuple[np.ndarray, float]:
     """A ROS 2 bag of a robot at rest at the origin of a rectangular room, its scanner 0.3 m ahead and turned 90°
-    (base_footprint -> base_link -> lidar_mount -> laser), upside down or not; the mount on ``mount_topic``.
+    (base_footprint -> base_link -> lidar_mount -> laser), upside down or not; the mount on ``mount_topic`` (None:
+    nowhere, a bag recorded without ``/tf_static``).
     Returns the scanner's position in the base frame and its yaw."""
     mount_xy, mount_yaw = np.array([0.3, 0.1]), math.pi / 2
     roll = math.pi if upside_down else 0.0
@@ -66,12 +68,12 @@ def write_mounted_bag(path: Path, mount_topic: str, upside_down: bool) -> tuple[
     zero = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         tf_type = "tf2_msgs/msg/TFMessage"
-        c_tf = w.add_connection(mount_topic, tf_type, typestore=TS)
+        c_tf = w.add_connection(mount_topic, tf_type, typestore=TS) if mount_topic else None
         c_scan = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=TS)
         c_odom = w.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=TS)
         for i in range(5):
             t = T0 + i * 100_000_000
-            if i == 0 or mount_topic == "/tf":  # a static mount once; a broadcast one at every step
+            if c_tf is not None and (i == 0 or mount_topic == "/tf"):  # static: once; broadcast: every step
                 w.write(c_tf, t, TS.serialize_cdr(T[tf_type](transforms=[_tf(t, *c) for c in chain]), tf_type))
             odom = T["nav_msgs/msg/Odometry"](
                 header=_header(t, "odom"), child_frame_id="base_footprint",
@@ -111,3 +113,11 @@ def test_every_beam_lands_on_the_wall_it_hit(tmp_path: Path, mount_topic: str, u
     m, r, a = spec.base_to_laser, frame.scan.ranges_m.astype(np.float64), spec.angles_rad + spec.base_to_laser.yaw_rad
     points = np.stack([m.x_m + r * np.cos(a), m.y_m + r * np.sin(a)], axis=1)  # the base frame: the robot is at 0
     assert len(points) == N_BEAMS and _on_the_walls(points).all()
+
+
+def test_a_bag_without_the_mount_says_so(tmp_path: Path) -> None:
+    write_mounted_bag(tmp_path / "robot", None, upside_down=False)
+    with pytest.warns(LogWarning, match="no transform from the base frame 'base_footprint' to the scanner's frame "
+                                        "'laser': the scanner is taken to sit at the base, facing forward"):
+        with open_log(tmp_path / "robot") as log:
+            assert log.lidar_spec.base_to_laser == Pose2D()
