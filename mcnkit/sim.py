@@ -281,19 +281,30 @@ def _goals(raster: PlanRaster, safe: BoolArray, clearance: F64) -> list[tuple[in
     return list(dict.fromkeys(goals))
 
 
-def safe_region(raster: PlanRaster, config: SimConfig) -> tuple[BoolArray, F64]:
-    """Where the robot may be: the largest connected region (H, W) of cells whose wall clearance exceeds the robot
-    radius plus the margin, and the clearance (H, W) in metres to the nearest occupied cell centre.
+def safe_region(raster: PlanRaster, config: SimConfig, at_xy_m: F64 | None = None) -> tuple[BoolArray, F64]:
+    """Where the robot may be: the connected region (H, W) of cells whose wall clearance exceeds the robot radius
+    plus the margin that holds ``at_xy_m`` (2,), or the largest such region without it, and the clearance (H, W) in
+    metres to the nearest occupied cell centre.
 
     Raises:
-        ValueError: no cell is wide enough for the robot.
+        ValueError: no cell is wide enough for the robot, or ``at_xy_m`` is not one of them.
     """
     clearance = ndimage.distance_transform_edt(raster.free) * raster.grid.resolution_m
     safe = clearance > config.robot_radius_m + config.margin_m
     labels, n = ndimage.label(safe)
     if n == 0:
         raise ValueError(f"{raster.name}: no place wide enough for a robot of radius {config.robot_radius_m} m")
-    return labels == 1 + int(np.argmax(ndimage.sum(safe, labels, range(1, n + 1)))), clearance
+    if at_xy_m is None:
+        return labels == 1 + int(np.argmax(ndimage.sum(safe, labels, range(1, n + 1)))), clearance
+    row, col = raster.grid.world_to_cell(np.asarray(at_xy_m, np.float64))
+    inside = 0 <= row < safe.shape[0] and 0 <= col < safe.shape[1]
+    if not (inside and safe[row, col]):
+        cells = np.argwhere(safe)
+        near = raster.grid.cell_to_world(cells[np.argmin(np.hypot(*(cells - [row, col]).T))])
+        raise ValueError(f"{raster.name}: a robot of radius {config.robot_radius_m:g} m (and {config.margin_m:g} m "
+                         f"to spare) does not fit at ({at_xy_m[0]:g}, {at_xy_m[1]:g}) m; the nearest place it fits is "
+                         f"({near[0]:.2f}, {near[1]:.2f}) m")
+    return labels == labels[row, col], clearance
 
 
 def _plan_path(raster: PlanRaster, config: SimConfig, rng: np.random.Generator) -> F64:

@@ -3,6 +3,7 @@ line can generate its ``--explore.FIELD`` / ``--gain.FIELD`` flags without impor
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal, get_args
 
@@ -24,6 +25,10 @@ class ExploreConfig:
 
     budget_m: float = 120.0
     """Path budget: the run stops once the robot has driven this far [m]."""
+    start_m: tuple[float, ...] = ()
+    """Where the robot starts: ``X Y`` or ``X Y YAW_DEG`` in the plan's frame (a map_server YAML's origin applies)
+    [m, °]; empty: a random place in the largest region the robot fits in, and a random heading (both by the
+    seed)."""
     stop_coverage: float = 1.0
     """The run also stops once this share of the reachable free space is observed (1: only when no reachable
     frontier is left or the budget is spent)."""
@@ -77,6 +82,8 @@ class ExploreConfig:
                 and self.contact_keep_s >= 0):
             raise ValueError(f"budget, replan distance, planning resolution and segment must be positive, margins, "
                              f"commit distance and contact_keep_s not negative: {self}")
+        if len(self.start_m) not in (0, 2, 3) or not all(math.isfinite(v) for v in self.start_m):
+            raise ValueError(f"start_m takes X Y or X Y YAW_DEG, got {self.start_m}")
         if not 0 < self.stop_coverage <= 1:
             raise ValueError(f"stop_coverage must be in (0, 1], got {self.stop_coverage}")
         if self.coverage_rays < 4 or self.coverage_lattice_m <= 0:

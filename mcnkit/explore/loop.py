@@ -35,6 +35,7 @@ Example:
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
 
@@ -168,7 +169,8 @@ class Explorer:
 
     def __post_init__(self) -> None:
         self.rng, slam_rng, self.sampler_seed = seed_streams(self.seed)
-        safe, _ = safe_region(self.raster, self.sim)
+        start = self.config.start_m
+        safe, _ = safe_region(self.raster, self.sim, np.asarray(start[:2]) if start else None)
         self._body_free = self.raster.free if self.low_obstacles is None else self.raster.free & ~self.low_obstacles
         """Where the robot's body can be (its collisions), as opposed to what the lidar sees (``raster.free``)."""
         self._clearance = ndimage.distance_transform_edt(self._body_free) * self.raster.grid.resolution_m
@@ -176,11 +178,14 @@ class Explorer:
         if not safe.any():
             raise ValueError(f"{self.raster.name}: its low obstacles leave no place wide enough for the robot")
         # the reachable space: what the planner's clearance lets the robot get to (its start lies inside)
-        reach_safe = safe_region(self.raster, replace(self.sim, margin_m=self.config.plan_margin_m))[0]
         cells = np.flatnonzero(safe)
         rc = np.array(divmod(int(cells[self.rng.integers(cells.size)]), safe.shape[1]), np.int64)
         xy = self.raster.grid.cell_to_world(rc)
-        pose = np.array([xy[0], xy[1], self.rng.uniform(-np.pi, np.pi)])
+        pose = np.array([xy[0], xy[1], self.rng.uniform(-np.pi, np.pi)])  # drawn either way: the same noise follows
+        if start:
+            xy = np.asarray(start[:2], np.float64)
+            pose = np.array([xy[0], xy[1], math.radians(start[2]) if len(start) > 2 else pose[2]])
+        reach_safe = safe_region(self.raster, replace(self.sim, margin_m=self.config.plan_margin_m), xy)[0]
         self.spec = self.sim.lidar.spec()
         self._mount = self.spec.base_to_laser.as_array()
         self._bias = draw_odometry_bias(self.sim.odometry, self.rng)

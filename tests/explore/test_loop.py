@@ -177,3 +177,16 @@ def test_progress_to_a_goal_is_measured_along_the_path_not_as_the_crow_flies(roo
     assert ex._to_goal_m() == pytest.approx(2.5 + 3.0 + 3.0)  # 3.04 m straight, which driving up the path lengthens
     ex._path = None  # no path (after a collision): straight
     assert ex._to_goal_m() == pytest.approx(np.hypot(3.0, 0.5))
+
+
+def test_the_robot_starts_where_it_is_told_and_nowhere_it_does_not_fit(rooms: PlanRaster) -> None:
+    """``--explore.start-m X Y [YAW_DEG]``: a user's robot enters their building where they say."""
+    ex = Explorer(rooms, FrontierPlanner(), ExploreConfig(start_m=(6.0, 1.5, 90.0)), seed=3)
+    assert np.allclose(ex.truth, [6.0, 1.5, np.pi / 2]) and ex.reachable.any()
+    free_start = Explorer(rooms, FrontierPlanner(), ExploreConfig(start_m=(1.0, 2.0)), seed=3)
+    drawn = Explorer(rooms, FrontierPlanner(), seed=3)
+    assert np.allclose(free_start.truth[:2], [1.0, 2.0]) and free_start.truth[2] == drawn.truth[2]  # heading drawn
+    with pytest.raises(ValueError, match=r"does not fit at \(4.05, 0.5\) m; the nearest place it fits is"):
+        Explorer(rooms, FrontierPlanner(), ExploreConfig(start_m=(4.05, 0.5)), seed=3)  # in the wall between rooms
+    with pytest.raises(ValueError, match="start_m takes X Y or X Y YAW_DEG"):
+        ExploreConfig(start_m=(1.0,))
