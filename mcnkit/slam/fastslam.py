@@ -206,12 +206,18 @@ class FastSlam:
 
     def self_hit_note(self) -> str | None:
         """One line on the returns of the robot's own body that were dropped, or None when there were none."""
-        beams = self.self_hits.beams
-        if not self.self_hits.n_dropped:
+        hits = self.self_hits
+        if not hits.n_dropped:
             return None
-        listed = ", ".join(str(b) for b in beams[:8]) + (", ..." if len(beams) > 8 else "")
-        return (f"the robot's own body: {len(beams)} beams ({listed}) return within {self.config.matching.self_hit_m:g} m "
-                f"at one range while it moves; {self.self_hits.n_dropped} such returns were dropped "
+        beams, released = hits.beams, hits.released
+        parts = []
+        if len(beams):
+            listed = ", ".join(str(b) for b in beams[:8]) + (", ..." if len(beams) > 8 else "")
+            parts.append(f"{len(beams)} beam{'s' * (len(beams) != 1)} ({listed}) return within {self.config.matching.self_hit_m:g} m at one "
+                         "range while it moves")
+        if len(released):
+            parts.append(f"{len(released)} beam{'s' * (len(released) != 1)} taken for it until its returns moved")
+        return (f"the robot's own body: {'; '.join(parts)}; {hits.n_dropped} returns taken for it were dropped "
                 "(--slam.matching.self-hit-m 0 keeps them)")
 
     @property

@@ -58,6 +58,11 @@ class SelfHits:
         """The beams whose short returns are taken for the robot's own."""
         return np.flatnonzero(self._own & (self._moved < self.release_after))
 
+    @property
+    def released(self) -> NDArray[np.intp]:
+        """The beams once taken for the robot's own whose short returns then moved: the world's after all."""
+        return np.flatnonzero(self._own & (self._moved >= self.release_after))
+
     def filter(self, ranges_m: NDArray[np.floating], moved_m: float = 0.0, turned_rad: float = 0.0) -> FloatArray:
         """``ranges_m`` (B,) with the robot's own returns made "no return" (NaN); a new array of its float type.
         ``moved_m`` and ``turned_rad``: how far the robot drove and turned since the previous scan."""

@@ -38,7 +38,7 @@ def test_a_standoff_is_dropped_once_the_robot_has_moved_and_the_world_is_kept() 
     assert list(hits.beams) == [0]
     for k in range(3):  # later, the beam sees something near that moves: it was the world's after all
         hits.filter(np.array([0.25 - 0.02 * k, 4.0, 3.0, 2.0], np.float32), moved_m=0.1)
-    assert list(hits.beams) == []
+    assert list(hits.beams) == [] and list(hits.released) == [0]
 
 
 def test_a_return_that_keeps_its_range_while_the_robot_turns_is_its_own() -> None:
@@ -68,7 +68,7 @@ def test_a_filter_fed_its_own_body_draws_no_trail_and_tracks_better() -> None:
     odom = drifting_odometry(truth, rng)
     frames = [Frame(int(k * 1e8), Scan(with_own_body(cast(p, rng, RPLIDAR), rng), RPLIDAR), Pose2D.from_array(o))
               for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
-    trail, error, own = {}, {}, {}
+    trail, error, own, note = {}, {}, {}, {}
     for reach in (0.3, 0.0):
         slam = FastSlam(SlamConfig(n_particles=10, matching=MatchingConfig(self_hit_m=reach)), np.random.default_rng(0))
         for f in frames:
@@ -76,6 +76,8 @@ def test_a_filter_fed_its_own_body_draws_no_trail_and_tracks_better() -> None:
         trail[reach] = _trail_cells(slam, truth)
         error[reach] = float(np.hypot(*(slam.trajectory().poses[:, :2] - truth[:, :2]).T).max())
         own[reach] = set(slam.self_hits.beams.tolist())
+        note[reach] = slam.self_hit_note()
     assert own[0.3] == set(OWN_BEAMS.tolist()) and own[0.0] == set()
+    assert note[0.0] is None and note[0.3] is not None and "62 beams (85, 86, 87, 88" in note[0.3]
     assert trail[0.0] >= 5 and trail[0.3] <= 1  # what is left: written before 2 m had confirmed them
     assert error[0.3] < 0.06 and error[0.3] < 0.8 * error[0.0]
