@@ -296,9 +296,9 @@ def safe_region(raster: PlanRaster, config: SimConfig, at_xy_m: F64 | None = Non
         raise ValueError(f"{raster.name}: no place wide enough for a robot of radius {config.robot_radius_m} m")
     if at_xy_m is None:
         return labels == 1 + int(np.argmax(ndimage.sum(safe, labels, range(1, n + 1)))), clearance
-    row, col = raster.grid.world_to_cell(np.asarray(at_xy_m, np.float64))
-    inside = 0 <= row < safe.shape[0] and 0 <= col < safe.shape[1]
-    if not (inside and safe[row, col]):
+    rc = raster.grid.world_to_cell(np.asarray(at_xy_m, np.float64))
+    row, col = int(rc[0]), int(rc[1])
+    if not (raster.grid.contains(rc) and safe[row, col]):
         cells = np.argwhere(safe)
         near = raster.grid.cell_to_world(cells[np.argmin(np.hypot(*(cells - [row, col]).T))])
         raise ValueError(f"{raster.name}: a robot of radius {config.robot_radius_m:g} m (and {config.margin_m:g} m "

@@ -47,8 +47,9 @@ class MapYaml:
     negate: bool = False
     occupied_thresh: float = 0.65
     free_thresh: float = 0.196
-    raw: bool = False
-    """``mode: raw``: a pixel's value is its occupancy in percent (0-100; above 100 unknown), no thresholds' scale."""
+    mode: str = "trinary"
+    """``trinary`` or ``scale`` (the thresholds above), or ``raw``: a pixel's value is its occupancy in percent (0-100;
+    above 100 unknown)."""
 
 
 def read_map_yaml(path: str | os.PathLike[str]) -> MapYaml:
@@ -65,11 +66,11 @@ def read_map_yaml(path: str | os.PathLike[str]) -> MapYaml:
         origin = [float(v) for v in doc.get("origin", [0.0, 0.0, 0.0])]
         out = MapYaml(float(doc["resolution"]), origin[0], origin[1], bool(int(doc.get("negate", 0))),
                       float(doc.get("occupied_thresh", 0.65)), float(doc.get("free_thresh", 0.196)),
-                      str(doc.get("mode", "trinary")) == "raw")
+                      str(doc.get("mode", "trinary")))
     except (TypeError, ValueError, IndexError):
         raise ValueError(f"{path}: malformed resolution, origin, negate or thresholds") from None
-    if str(doc.get("mode", "trinary")) not in ("trinary", "scale", "raw"):
-        raise ValueError(f"{path}: unknown mode {doc['mode']!r} (trinary, scale or raw)")
+    if out.mode not in ("trinary", "scale", "raw"):
+        raise ValueError(f"{path}: unknown mode {out.mode!r} (trinary, scale or raw)")
     if len(origin) > 2 and abs(origin[2]) > 1e-9:
         raise ValueError(f"{path}: a rotated map origin (yaw {origin[2]}) is not supported")
     if not out.resolution_m > 0:
@@ -112,7 +113,7 @@ def read_occupancy_image(path: str | os.PathLike[str], resolution_m: float = 0.0
             gray = np.asarray(img.convert("L"), np.float64)
     except (OSError, UnidentifiedImageError, ValueError) as e:
         raise ValueError(f"{image_path}: not a readable occupancy image ({e})") from None
-    if meta.raw:  # the value is the occupancy in percent; above 100 (255: -1 as a byte) unknown
+    if meta.mode == "raw":  # the value is the occupancy in percent; above 100 (255: -1 as a byte) unknown
         occupancy = np.where(gray <= 100, gray / 100.0, 0.5 * (meta.free_thresh + meta.occupied_thresh))
     else:
         occupancy = gray / 255.0 if meta.negate else (255.0 - gray) / 255.0

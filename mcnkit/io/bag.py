@@ -181,26 +181,33 @@ class BagLog(LogReader):
         """The scanner's mount in the plane, and whether it is mounted upside down (its z axis points down: its
         beams sweep clockwise seen from above).  A log with odometry but no transform to the scanner's frame gets
         the scanner at the base, facing forward, with a warning (a bag recorded without ``/tf_static``)."""
-        found = self._find_mount(laser_frame)
+        base = self._base_frame()
+        found = self._find_mount(laser_frame, base)
         if found is not None:
             return found
-        base = (self._odom_source.split("->")[1] if "->" in self._odom_source else self._odometry_child()) \
-            if self._odom_source else None
         if base is not None and laser_frame and laser_frame != base:
             warn_skipped(self.path, f"no transform from the base frame {base!r} to the scanner's frame {laser_frame!r}: "
                                     "the scanner is taken to sit at the base, facing forward")
         return Pose2D(), False
 
-    def _find_mount(self, laser_frame: str) -> tuple[Pose2D, bool] | None:
-        """The mount through the log's transforms (see :meth:`_base_to_laser`); None when no chain reaches it."""
+    def _base_frame(self) -> str | None:
+        """The robot's base frame as the odometry names it: the child of the ``/tf`` pair, or the Odometry topic's
+        ``child_frame_id``; None without odometry."""
+        if not self._odom_source:
+            return None
+        if "->" in self._odom_source:
+            return self._odom_source.split("->")[1]
+        return self._odometry_child()
+
+    def _find_mount(self, laser_frame: str, base: str | None) -> tuple[Pose2D, bool] | None:
+        """The mount from ``base`` through the log's transforms (see :meth:`_base_to_laser`; without odometry, or an
+        Odometry child the transforms do not name: from the scanner's parent); None when no chain reaches it."""
         tfs = self._mount_transforms() if laser_frame else {}
         if not tfs:
             return None
-        base = self._odom_source.split("->")[1] if self._odom_source and "->" in self._odom_source else None
-        if base is None:  # odometry topic: its child frame is the base, else the laser's parent
-            base = self._odometry_child()
-            if base is None or not any(base in key for key in tfs):
-                base = next((p for (p, c) in tfs if c == laser_frame), None)
+        topic_base = not (self._odom_source or "").startswith("tf:")  # a /tf pair's child is the base the transforms hang from
+        if base is None or (topic_base and not any(base in key for key in tfs)):
+            base = next((p for (p, c) in tfs if c == laser_frame), None)
             if base is None:
                 return None
         children: dict[str, list[tuple[str, tuple[np.ndarray, np.ndarray]]]] = {}
