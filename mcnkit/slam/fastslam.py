@@ -158,6 +158,7 @@ class FastSlam:
         # the robot's motion over the last scan, in its own frame: what a scan whose motion the log does not hold is
         # predicted from (not the difference of two online poses: the best particle may change between them)
         self._last_motion = np.zeros(3)
+        self._fresh_scan = 0  # the last scan whose odometry differed from the scan's before (see _after_stall)
         self._scan_tracked: list[F64] = []  # that pose relative to the best particle's last update pose
         self._update_hits: list[F64] = []  # hit points (M, 2) of every update scan, base frame
         self._update_tracked: list[F64] = []  # the online pose at every update (where tracking restarts)
@@ -267,12 +268,13 @@ class FastSlam:
             tracked = odom.copy()
         else:
             move = relative(self._last_odom, odom)
+            step_move = self._after_stall(move) if known else move  # the odometry's step, from where it applies
             residual = None  # this step's odometry against its scan-matched motion (the noise floor)
             dt_s = (frame.stamp_ns - self._scan_stamps[-1]) * 1e-9
             guess = self.prior.predict(dt_s if dt_s > 0 else None)
-            found = self._track(beams, odom, move) if known else None
+            found = self._track(beams, odom, step_move) if known else None
             cov = None  # the spread of a motion found from the scans alone
-            if found is not None and cfg.motion.check_odometry and self._unlike_prior(move, guess):  # slipping wheels?
+            if found is not None and cfg.motion.check_odometry and self._unlike_prior(step_move, guess):  # slipping wheels?
                 alt, alt_cov = self._track_unknown_motion(beams, odom, guess)
                 scans_say = alt if self._explains_better(alt, found, beams) else found
                 if not self._unlike_prior(relative(self._scan_online[-1], scans_say), guess):  # as the robot went
@@ -281,7 +283,7 @@ class FastSlam:
                 tracked = found
                 self._last_motion = relative(self._scan_online[-1], tracked)
                 if cfg.motion.noise_from_log and cfg.matching.track_every_scan:
-                    residual = self.noise_scale.add(move, self._last_motion, self._noise)
+                    residual = self.noise_scale.add(step_move, self._last_motion, self._noise)
             else:  # no odometry for this motion, or one the scans contradict: found from the scans alone
                 self.n_odometry_rejected += int(known)
                 self.n_unknown_motion += int(not known)
@@ -301,6 +303,8 @@ class FastSlam:
                 noise = (self.noise_scale.noise(self._noise, residual if cfg.motion.noise_step_floor else None)
                          if cfg.motion.noise_from_log else self._noise)
                 self.poses = sample_motion(self.poses, before, after, noise, self.rng)
+        if first or not known or not np.array_equal(odom, self._last_odom):
+            self._fresh_scan = self.n_scans  # this scan's odometry is new (or there is none to stall)
         self._last_odom = odom
         updated = first or self._linear_m >= cfg.updates.linear_m or self._angular_rad >= cfg.updates.angular_rad
         resampled = False
@@ -328,6 +332,23 @@ class FastSlam:
             self.poses[best].copy(),
             scores,
         )
+
+    def _after_stall(self, move: F64) -> F64:
+        """The odometry's step ``move`` as applied from the pose of the scan where the odometry last changed.
+
+        Odometry that stalls (repeats its pose for a few scans while the scans see the robot move: a driver that
+        missed its messages) and then catches up holds the stalled scans' motion in one step; applied from the last
+        pose, which the scan matching already moved through the stall, it overshoots by all of it (MIT CSAIL's
+        odometry stands still for four scans while the robot turns 60°, then turns 85° in one).  Applied from the
+        pose before the stall it predicts where the robot is.  Unchanged where the odometry did not stall, or where
+        the robot did not move while it did (a robot at rest)."""
+        stalled_from = self._fresh_scan
+        if stalled_from >= self.n_scans - 1 or not move.any():
+            return move
+        since = relative(self._scan_online[stalled_from], self._scan_online[-1])
+        if math.hypot(since[0], since[1]) < self.config.resolution_m and abs(float(since[2])) < math.radians(1.0):
+            return move
+        return relative(self._scan_online[-1], compose(self._scan_online[stalled_from], move))
 
     def _from_update(self, odom: F64) -> F64:
         """gmapping's pose at this scan: the best particle's pose at the last update plus the odometry since."""

@@ -282,3 +282,35 @@ def test_refined_trajectory_stays_on_the_path_and_the_map_can_be_cast_from_it(wo
     assert sum(hits.sum() for _, hits, _ in strips) > 0
     with pytest.raises(ValueError, match="one pose per update"):
         slam.best_map_strips(poses=refined)
+
+
+def _stalled_turn() -> tuple[list[np.ndarray], list[Frame], int]:
+    """The robot drives 2 m east, turns 90° in place, 15° a scan, and drives on north; the odometry stalls for the
+    first four scans of the turn (it repeats its pose) and then catches up: 75° in one scan."""
+    rng = np.random.default_rng(5)
+    truth = [np.array([2.0 + 0.1 * k, 2.0, 0.0]) for k in range(21)]
+    truth += [np.array([4.0, 2.0, np.radians(15.0 * k)]) for k in range(1, 7)]
+    truth += [np.array([4.0, 2.0 + 0.1 * k, np.pi / 2]) for k in range(1, 30)]
+    stalled = range(21, 25)
+    odom = [truth[0]]
+    for k in range(1, len(truth)):
+        if k in stalled:
+            odom.append(odom[-1])  # the driver repeats its last pose
+        elif k == stalled.stop:  # and catches up: the whole turn so far in one step
+            odom.append(compose(odom[-1], relative(truth[stalled.start - 1], truth[k])))
+        else:
+            odom.append(compose(odom[-1], relative(truth[k - 1], truth[k])))
+    frames = [Frame(int(k * 1e8), Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))
+              for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
+    return truth, frames, stalled.stop
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_odometry_that_stalls_and_catches_up_is_applied_from_before_the_stall(seed: int) -> None:
+    # MIT CSAIL's odometry does this around scan 1580: four scans at one pose while the robot turns, then 85° in one
+    truth, frames, catch_up = _stalled_turn()
+    slam = FastSlam(SlamConfig(n_particles=10, loops=LoopsConfig(closure=False)), np.random.default_rng(seed))
+    online = [slam.step(f).best_pose for f in frames]
+    heading_error_deg = [np.degrees(abs(np.angle(np.exp(1j * (p[2] - t[2]))))) for p, t in zip(online, truth, strict=True)]
+    assert max(heading_error_deg[catch_up:]) < 3.0  # the catch-up step lands on the turn, not 60° past it
+    assert np.hypot(*(online[-1][:2] - truth[-1][:2])) < 0.15
