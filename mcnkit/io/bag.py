@@ -8,6 +8,9 @@ Detection (each overridable in :func:`mcnkit.io.open_log`):
 * the laser's mount: the chain of ``/tf_static`` transforms (else of fixed ones on ``/tf``) from the base frame to the
   scan's ``frame_id``, in 3-D: a scanner mounted upside down (its z axis pointing down) sweeps clockwise seen from
   above, so its ranges are read in reverse and its angles mirrored, and the planar frames look like any other.
+  A log with odometry and no such chain (a bag recorded without ``/tf_static``) gets the scanner's direction, sense of
+  sweep and offset from the robot's motion (:mod:`mcnkit.io.mountfit`) when they are plainly not facing forward,
+  with a warning either way.
 
 Frames: scans and odometry are read together in record order; each scan's odometry is interpolated at the
 scan's header stamp between the two odometry poses around it.  A scan of another beam count or angles than the
@@ -30,8 +33,9 @@ from __future__ import annotations
 import bisect
 import math
 import re
+import warnings
 from collections import Counter, deque
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +44,7 @@ import numpy as np
 from mcnkit.geometry import quaternion_to_yaw
 from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
 from mcnkit.io.decode import MessageDecoder
-from mcnkit.io.errors import PARSE_ERRORS, LogError, as_log_error, warn_skipped
+from mcnkit.io.errors import PARSE_ERRORS, LogError, LogWarning, as_log_error, warn_skipped
 from mcnkit.io.plausible import check_spec, spec_problem
 from mcnkit.io.sources import Connection, RawSource
 from mcnkit.io.stampcheck import StampCheck
@@ -56,6 +60,9 @@ MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
 _GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
 _PENDING_NS = 10_000_000_000
 _SPEC_SCANS = 5  # the scanner is what most of the first scans say
+_MOUNT_FIT_MIN_PATH_M = 2.0  # the robot must drive this far for its motion to tell where the scanner points
+_MOUNT_FIT_MIN_TURN_RAD = math.radians(10.0)  # a scanner found this close to facing forward is taken to face forward
+_MOUNT_FIT_MIN_GAIN = 1.1  # and one found turned must make a map this much sharper than facing forward
 
 
 def resample_beams(ranges_m: np.ndarray, angle_min_rad: float, angle_increment_rad: float,
@@ -177,18 +184,57 @@ class BagLog(LogReader):
                 continue
         return None
 
-    def _base_to_laser(self, laser_frame: str) -> tuple[Pose2D, bool]:
+    def _base_to_laser(self, laser_frame: str, facing_forward: LidarSpec) -> tuple[Pose2D, bool]:
         """The scanner's mount in the plane, and whether it is mounted upside down (its z axis points down: its
-        beams sweep clockwise seen from above).  A log with odometry but no transform to the scanner's frame gets
-        the scanner at the base, facing forward, with a warning (a bag recorded without ``/tf_static``)."""
+        beams sweep clockwise seen from above).  A log with odometry but no transform to the scanner's frame (a bag
+        recorded without ``/tf_static``) gets the mount its motion shows (:meth:`_mount_from_motion`), with a
+        warning."""
         base = self._base_frame()
         found = self._find_mount(laser_frame, base)
         if found is not None:
             return found
-        if base is not None and laser_frame and laser_frame != base:
-            warn_skipped(self.path, f"no transform from the base frame {base!r} to the scanner's frame {laser_frame!r}: "
-                                    "the scanner is taken to sit at the base, facing forward")
-        return Pose2D(), False
+        if base is None or not laser_frame or laser_frame == base:
+            return Pose2D(), False
+        mount, upside_down, how = self._mount_from_motion(facing_forward)
+        warn_skipped(self.path, f"no transform from the base frame {base!r} to the scanner's frame {laser_frame!r}: "
+                                f"{how}")
+        return mount, upside_down
+
+    def _mount_from_motion(self, facing_forward: LidarSpec) -> tuple[Pose2D, bool, str]:
+        """The mount that makes the sharpest map of the log's first metres (:func:`~mcnkit.io.mountfit.fit_mount`)
+        where it turns the scanner plainly away from facing forward; else the scanner at the base, facing forward.
+        Also what was found, in words."""
+        from mcnkit.io.mountfit import fit_mount, mount_sample  # numba, for the logs that need it only
+
+        self._spec = facing_forward
+        frames = self._read_frames(Counter())
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", LogWarning)  # the frames are read again, and warn then
+                sample = mount_sample(frames)
+        except LogError:
+            sample = None
+        finally:
+            frames.close()
+            self._spec = None
+        forward = "the scanner is taken to sit at the base, facing forward"
+        if sample is None:
+            return Pose2D(), False, forward
+        if sample.path_m < _MOUNT_FIT_MIN_PATH_M:
+            return Pose2D(), False, (forward + f" (the robot drives {sample.path_m:.1f} m in the stretch looked at: too "
+                                               "little to find the scanner's direction from the motion)")
+        fit = fit_mount(sample)
+        best = (f"the sharpest map has the scanner at {math.degrees(fit.yaw_rad):.0f}°"
+                f"{', upside down' if fit.upside_down else ''}, {fit.sharpness_gain:.2f}× as sharp")
+        if not (abs(fit.yaw_rad) > _MOUNT_FIT_MIN_TURN_RAD or fit.upside_down):
+            return Pose2D(), False, forward + f" (the robot's first {fit.path_m:.0f} m agree with it: {best})"
+        if fit.sharpness_gain < _MOUNT_FIT_MIN_GAIN:
+            return Pose2D(), False, forward + f" (the robot's first {fit.path_m:.0f} m do not tell: {best})"
+        mount = Pose2D(fit.x_m, fit.y_m, fit.yaw_rad)
+        return mount, fit.upside_down, (
+            f"from the robot's first {fit.path_m:.0f} m, the scanner points {math.degrees(fit.yaw_rad):.1f}° from the "
+            f"base's x axis{', upside down (its beams sweep clockwise)' if fit.upside_down else ''}, at "
+            f"({fit.x_m:.2f}, {fit.y_m:.2f}) m (a map {fit.sharpness_gain:.1f}× as sharp as with it facing forward)")
 
     def _base_frame(self) -> str | None:
         """The robot's base frame as the odometry names it: the child of the ``/tf`` pair, or the Odometry topic's
@@ -285,9 +331,9 @@ class BagLog(LogReader):
                     raise LogError(self.path, f"implausible scanner: {problems[0]}")
                 raise LogError(self.path, f"LaserScan topic {topic} has no (readable) messages")
             key = seen.most_common(1)[0][0]
-            mount, self._upside_down = self._base_to_laser(key[5])
             amin, inc, n = key[:3]
             self._geometry = (amin, inc, n)
+            mount, self._upside_down = self._base_to_laser(key[5], check_spec(self.path, LidarSpec(*key[:5])))
             if self._upside_down:  # beam i at −(amin + i·inc): the reversed scan starts at −angle_max
                 amin = -(amin + (n - 1) * inc)
             self._spec = check_spec(self.path, LidarSpec(amin, inc, n, *key[3:5], mount))
@@ -317,7 +363,7 @@ class BagLog(LogReader):
                 out.append((stamp or t, p.x, p.y, float(quaternion_to_yaw(np.array([q.x, q.y, q.z, q.w])))))
         return out
 
-    def _read_frames(self, skipped: Counter[str]) -> Iterator[Frame]:
+    def _read_frames(self, skipped: Counter[str]) -> Generator[Frame, None, None]:
         """Time-ordered frames (see the module docstring); what is skipped is counted into ``skipped``."""
         with as_log_error(self.path, "damaged data while reading frames"):
             yield from self._frames(skipped)

@@ -33,5 +33,7 @@ class LogContent:
     odom_topic: str | None = "/odom"  # None: odometry only as /tf (odom -> base_link)
     odometry: bool = True
     """False: a log without odometry (a lidar-only reading of a log): no Odometry topic, no odom → base on /tf."""
+    mount_transform: bool = True
+    """False: no ``/tf_static`` (a bag recorded without it: the scanner's mount is not in the log)."""
     ground_truth_topic: str = "/ground_truth"
     map_topic: str = "/map_gt"

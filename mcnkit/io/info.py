@@ -71,6 +71,8 @@ def print_info(info: dict[str, Any]) -> None:
     if "scanner" in info:
         s = info["scanner"]
         read = f" (read from {info['laser_lines']} laser lines)" if "laser_lines" in info else ""
+        mount = s["base_to_laser"]
         print(f"scanner   {info['scans']} scans{read} of {s['beams']} beams, field of view {s['fov_deg']}° "
               f"(from {s['angle_min_deg']}° in {s['angle_increment_deg']}° steps), "
-              f"range {s['range_min_m']}–{s['range_max_m']} m, mount {s['base_to_laser']}")
+              f"range {s['range_min_m']}–{s['range_max_m']} m, mount at ({mount[0]:.3f}, {mount[1]:.3f}) m, "
+              f"turned {math.degrees(mount[2]):.1f}°")

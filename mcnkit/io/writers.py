@@ -120,7 +120,8 @@ def _messages(content: LogContent, b: _Msgs) -> Iterator[tuple[str, str, int, An
     frames = iter(content.frames)
     head = next(frames)
     first = head.stamp_ns
-    yield "/tf_static", "tf", first, b.tf(first, BASE_FRAME, LASER_FRAME, head.scan.spec.base_to_laser)
+    if content.mount_transform:
+        yield "/tf_static", "tf", first, b.tf(first, BASE_FRAME, LASER_FRAME, head.scan.spec.base_to_laser)
     if content.ground_truth_map is not None:
         yield content.map_topic, "map", content.ground_truth_map.stamp_ns, b.occupancy_grid(content)
     gt = content.ground_truth
@@ -143,7 +144,8 @@ def _messages(content: LogContent, b: _Msgs) -> Iterator[tuple[str, str, int, An
 
 
 def _topics(content: LogContent) -> dict[str, str]:
-    topics = {"/tf_static": "tf", content.scan_topic: "scan"}
+    topics = {"/tf_static": "tf"} if content.mount_transform else {}
+    topics[content.scan_topic] = "scan"
     if content.odometry:
         topics["/tf"] = "tf"
         if content.odom_topic:
