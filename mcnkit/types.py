@@ -91,6 +91,10 @@ class LidarSpec:
     range_min_m: float
     range_max_m: float
     base_to_laser: Pose2D = field(default_factory=Pose2D)
+    time_increment_s: float = 0.0
+    """The time between two beams' measurements (``LaserScan.time_increment``): a spinning scanner on a moving
+    robot measures each beam from another pose (see :mod:`mcnkit.slam.deskew`).  Negative: the beams were
+    measured last to first (a scanner read upside down, its beams reversed); 0: not said (every beam at once)."""
 
     def __post_init__(self) -> None:
         if self.n_beams <= 0:
@@ -107,6 +111,13 @@ class LidarSpec:
     def angle_max_rad(self) -> float:
         """Angle of the last beam."""
         return self.angle_min_rad + self.angle_increment_rad * (self.n_beams - 1)
+
+    @property
+    def beam_times_s(self) -> F64:
+        """When each beam was measured, in seconds after the first measurement (the scan's stamp), shape
+        (n_beams,); zeros where the scanner does not say."""
+        t = self.time_increment_s * np.arange(self.n_beams, dtype=np.float64)
+        return t - t.min()
 
     @property
     def fov_rad(self) -> float:

@@ -45,7 +45,7 @@ from mcnkit.geometry import quaternion_to_yaw
 from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
 from mcnkit.io.decode import MessageDecoder
 from mcnkit.io.errors import PARSE_ERRORS, LogError, LogWarning, as_log_error, warn_skipped
-from mcnkit.io.plausible import check_spec, spec_problem
+from mcnkit.io.plausible import check_spec, plausible_frames, spec_problem
 from mcnkit.io.sources import Connection, RawSource
 from mcnkit.io.stampcheck import StampCheck
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
@@ -60,6 +60,7 @@ MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
 _GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
 _PENDING_NS = 10_000_000_000
 _SPEC_SCANS = 5  # the scanner is what most of the first scans say
+_MAX_SWEEP_S = 0.5  # the slowest spinning scanners turn twice a second; a longer "sweep" is not one
 _MOUNT_FIT_MIN_PATH_M = 2.0  # the robot must drive this far for its motion to tell where the scanner points
 _MOUNT_FIT_MIN_TURN_RAD = math.radians(10.0)  # a scanner found this close to facing forward is taken to face forward
 _MOUNT_FIT_MIN_GAIN = 1.1  # and one found turned must make a map this much sharper than facing forward
@@ -97,6 +98,14 @@ def _rotation(x: float, y: float, z: float, w: float) -> np.ndarray:
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _time_increment(said_s: list[float], n_beams: int) -> float:
+    """The time between beams the first scans say (their median, as drivers measure each sweep anew; negative: the
+    beams were measured last to first), or 0 where it is not a sweep a scanner makes (not said, not finite, or a
+    sweep longer than ``_MAX_SWEEP_S``)."""
+    t = float(np.median(said_s)) if said_s else 0.0
+    return t if math.isfinite(t) and 0.0 < abs(t) * (n_beams - 1) <= _MAX_SWEEP_S else 0.0
 
 
 def _pick(conns: list[TopicInfo], preferred: str) -> str | None:
@@ -207,7 +216,8 @@ class BagLog(LogReader):
         from mcnkit.io.mountfit import fit_mount, mount_sample  # numba, for the logs that need it only
 
         self._spec = facing_forward
-        frames = self._read_frames(Counter())
+        skipped: Counter[str] = Counter()
+        frames = plausible_frames(self.path, self._read_frames(skipped), skipped)  # as frames() gives them
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", LogWarning)  # the frames are read again, and warn then
@@ -303,6 +313,7 @@ class BagLog(LogReader):
         if self._spec is None:
             topic = self._require_scan()
             seen: Counter[tuple[float, float, int, float, float, str]] = Counter()
+            sweeps: dict[tuple[float, float, int, float, float, str], list[float]] = {}
             problems = []
             for conn, _, raw in self._src.messages([topic]):
                 try:
@@ -322,6 +333,7 @@ class BagLog(LogReader):
                     problem = spec_problem(LidarSpec(*key[:5]))
                 if problem is None:
                     seen[key] += 1
+                    sweeps.setdefault(key, []).append(float(s.time_increment_s))
                 else:
                     problems.append(problem)
                 if sum(seen.values()) + len(problems) >= _SPEC_SCANS:
@@ -334,9 +346,10 @@ class BagLog(LogReader):
             amin, inc, n = key[:3]
             self._geometry = (amin, inc, n)
             mount, self._upside_down = self._base_to_laser(key[5], check_spec(self.path, LidarSpec(*key[:5])))
+            between = _time_increment(sweeps[key], n)
             if self._upside_down:  # beam i at −(amin + i·inc): the reversed scan starts at −angle_max
-                amin = -(amin + (n - 1) * inc)
-            self._spec = check_spec(self.path, LidarSpec(amin, inc, n, *key[3:5], mount))
+                amin, between = -(amin + (n - 1) * inc), -between  # and its first beam was measured last
+            self._spec = check_spec(self.path, LidarSpec(amin, inc, n, *key[3:5], mount, between))
         return self._spec
 
     def time_range_ns(self) -> tuple[int, int]:

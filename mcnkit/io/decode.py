@@ -48,6 +48,7 @@ class DecodedScan:
     range_min_m: float
     range_max_m: float
     ranges_m: np.ndarray  # float32 (n,)
+    time_increment_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -92,14 +93,14 @@ def _fast_scan(raw: bytes | memoryview, cdr: bool) -> DecodedScan:
     stamp, frame, off = _header(buf, cdr)
     if cdr:
         off = _align(off, 4, 4)
-    amin, _amax, inc, _tinc, _st, rmin, rmax = _SCAN_FIELDS.unpack_from(buf, off)
+    amin, _amax, inc, tinc, _st, rmin, rmax = _SCAN_FIELDS.unpack_from(buf, off)
     off += 28
     (n,) = _U32.unpack_from(buf, off)
     off += 4
     if off + 4 * n > len(buf):
         raise ValueError("ranges run past the end of the message")
     ranges = np.frombuffer(buf, dtype="<f4", count=n, offset=off).astype(np.float32)
-    return DecodedScan(stamp, frame, amin, inc, rmin, rmax, ranges)
+    return DecodedScan(stamp, frame, amin, inc, rmin, rmax, ranges, tinc)
 
 
 def _fast_odometry(raw: bytes | memoryview, cdr: bool) -> DecodedOdometry:
@@ -167,6 +168,7 @@ class MessageDecoder:
         return DecodedScan(
             _stamp_of(m.header), m.header.frame_id, float(m.angle_min), float(m.angle_increment),
             float(m.range_min), float(m.range_max), np.asarray(m.ranges, dtype=np.float32),
+            float(m.time_increment),
         )
 
     def odometry(self, raw: bytes | memoryview, encoding: str) -> DecodedOdometry:

@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter, deque
-from collections.abc import Iterable, Iterator
+from collections.abc import Generator, Iterable, Iterator
 from itertools import pairwise
 from pathlib import Path
 
@@ -167,7 +167,7 @@ class _Anchor:
         self.t = compose(at.as_array(), inverse(raw.as_array()))
 
 
-def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter[str] | None = None) -> Iterator[Frame]:
+def plausible_frames(path: Path | str, frames: Iterable[Frame], skipped: Counter[str] | None = None) -> Generator[Frame, None, None]:
     """The frames that pass the rules of the module docstring, in order.
 
     ``skipped``: counts of scans the reader itself skipped (filled while ``frames`` is consumed); they go into

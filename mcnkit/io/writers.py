@@ -75,7 +75,8 @@ class _Msgs:
         s = f.scan.spec
         return self.T[_TYPES["scan"]](
             header=self.header(f.stamp_ns, LASER_FRAME), angle_min=s.angle_min_rad, angle_max=s.angle_max_rad,
-            angle_increment=s.angle_increment_rad, time_increment=0.0, scan_time=0.0, range_min=s.range_min_m,
+            angle_increment=s.angle_increment_rad, time_increment=s.time_increment_s,
+            scan_time=0.0, range_min=s.range_min_m,
             range_max=s.range_max_m, ranges=np.asarray(f.scan.ranges_m, dtype=np.float32),
             intensities=np.zeros(0, dtype=np.float32),
         )

@@ -145,6 +145,10 @@ class MatchingConfig:
     keeps a fixed clearance from walls sees them at one range too [m]."""
     self_hit_tolerance_m: float = 0.05
     """A beam's short returns within this of the first one it gave are the robot's own [m]."""
+    deskew: bool = True
+    """Where the scanner says when it measured each beam (``LaserScan.time_increment``), move each return to where
+    the robot was at the scan's stamp, the robot moving through the sweep as it moved over the step before
+    (:mod:`mcnkit.slam.deskew`): a spinning scanner on a turning robot otherwise smears every turn."""
 
     def __post_init__(self) -> None:
         _positive(self, "sigma_m2", "lstep_m", "astep_rad", "lsigma_m2", "self_hit_tolerance_m")

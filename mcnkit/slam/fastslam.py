@@ -47,6 +47,7 @@ from mcnkit.geometry import compose, relative
 from mcnkit.grid import log_odds_to_ternary
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.correlative import LikelihoodGrid
+from mcnkit.slam.deskew import deskew_ranges
 from mcnkit.slam.loops import LoopCloser
 from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.motion import MotionNoise, NoiseScale, motion_std, sample_motion
@@ -65,6 +66,8 @@ __all__ = ["FastSlam", "LogLikelihoodHook", "SlamStep", "counts_to_grid"]
 F64 = NDArray[np.float64]
 LogLikelihoodHook = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 """``hook(poses (N, 3), end_points_base (M, 2)) -> (N,)`` extra log-likelihood per particle at a filter update."""
+
+_MAX_SWEEP_MOTION = (0.5, 0.5)  # m, rad: more within one sweep is an odometry jump, not a motion to undo
 
 
 @dataclass(frozen=True)
@@ -262,6 +265,8 @@ class FastSlam:
         known = frame.odom_known and cfg.motion.odometry == "use"
         # ignored odometry stays frozen where the first scan was (nothing of it reaches the filter)
         odom = frame.odom.as_array() if cfg.motion.odometry == "use" else (np.zeros(3) if first else self._last_odom)
+        if cfg.matching.deskew and frame.scan.spec.time_increment_s and not first:
+            frame = self._deskewed(frame, odom, known)
         beams = self._beams(frame)
         if first:
             self.poses[:] = odom
@@ -332,6 +337,26 @@ class FastSlam:
             self.poses[best].copy(),
             scores,
         )
+
+    def _deskewed(self, frame: Frame, odom: F64, known: bool) -> Frame:
+        """``frame`` with its scan deskewed (:func:`~mcnkit.slam.deskew.deskew_ranges`): the robot moving through
+        the sweep at its velocity since the scan before, by the odometry where the step has one, else by the scans
+        (the tracked motion of the step before).  As logged where that velocity would turn or move the robot more
+        than ``_MAX_SWEEP_MOTION`` within the sweep (an odometry jump, not a motion)."""
+        if known:
+            dt_s, motion = (frame.stamp_ns - self._scan_stamps[-1]) * 1e-9, relative(self._last_odom, odom)
+        elif len(self._scan_stamps) >= 2:
+            dt_s, motion = (self._scan_stamps[-1] - self._scan_stamps[-2]) * 1e-9, self._last_motion
+        else:
+            return frame
+        spec = frame.scan.spec
+        if dt_s <= 0:
+            return frame
+        velocity = motion / dt_s
+        sweep = float(spec.beam_times_s.max()) * velocity
+        if math.hypot(sweep[0], sweep[1]) > _MAX_SWEEP_MOTION[0] or abs(float(sweep[2])) > _MAX_SWEEP_MOTION[1]:
+            return frame
+        return replace(frame, scan=replace(frame.scan, ranges_m=deskew_ranges(frame.scan.ranges_m, spec, velocity)))
 
     def _after_stall(self, move: F64) -> F64:
         """The odometry's step ``move`` as applied from the pose of the scan where the odometry last changed.

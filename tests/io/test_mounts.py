@@ -11,13 +11,14 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
-from mcnkit.io import LogWarning, open_log
+from mcnkit.io import LogContent, LogWarning, open_log, write_log
 from mcnkit.types import Pose2D
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
 ROOM_M = (-2.0, 6.0, -1.5, 3.5)  # x0, x1, y0, y1: a rectangle the robot is not at the centre of (a mirror shows)
 N_BEAMS = 360
+BETWEEN_BEAMS_S = 0.1 / N_BEAMS  # a 10 Hz sweep
 T0 = 1_700_000_000_000_000_000
 
 
@@ -85,7 +86,8 @@ def write_mounted_bag(path: Path, mount_topic: str | None, upside_down: bool) ->
             w.write(c_odom, t, TS.serialize_cdr(odom, "nav_msgs/msg/Odometry"))
             scan = T["sensor_msgs/msg/LaserScan"](
                 header=_header(t, "laser"), angle_min=amin, angle_max=amin + (N_BEAMS - 1) * inc, angle_increment=inc,
-                time_increment=0.0, scan_time=0.0, range_min=0.1, range_max=30.0, ranges=ranges,
+                time_increment=BETWEEN_BEAMS_S * (1 + 0.01 * (i - 2)), scan_time=0.1, range_min=0.1, range_max=30.0,
+                ranges=ranges,
                 intensities=np.zeros(0, np.float32))
             w.write(c_scan, t, TS.serialize_cdr(scan, "sensor_msgs/msg/LaserScan"))
     return mount_xy, mount_yaw
@@ -113,6 +115,18 @@ def test_every_beam_lands_on_the_wall_it_hit(tmp_path: Path, mount_topic: str, u
     m, r, a = spec.base_to_laser, frame.scan.ranges_m.astype(np.float64), spec.angles_rad + spec.base_to_laser.yaw_rad
     points = np.stack([m.x_m + r * np.cos(a), m.y_m + r * np.sin(a)], axis=1)  # the base frame: the robot is at 0
     assert len(points) == N_BEAMS and _on_the_walls(points).all()
+    # the driver measures each sweep anew: the spec takes the median; read upside down, the first beam came last
+    assert spec.time_increment_s == pytest.approx(-BETWEEN_BEAMS_S if upside_down else BETWEEN_BEAMS_S, rel=1e-6)
+    assert spec.beam_times_s[-1 if upside_down else 0] == 0.0
+
+
+def test_the_time_between_beams_survives_a_conversion(tmp_path: Path) -> None:
+    write_mounted_bag(tmp_path / "robot", "/tf_static", upside_down=True)
+    with open_log(tmp_path / "robot") as log:
+        spec = log.lidar_spec
+        out = write_log(tmp_path / "again.mcap", LogContent(log.frames()))
+    with open_log(out) as again:
+        assert again.lidar_spec.time_increment_s == pytest.approx(spec.time_increment_s, rel=1e-6)
 
 
 def test_a_bag_without_the_mount_says_so(tmp_path: Path) -> None:
