@@ -40,6 +40,7 @@ def describe(log: LogReader) -> dict[str, object]:
             "range_min_m": round(spec.range_min_m, 3),
             "range_max_m": round(spec.range_max_m, 3),
             "base_to_laser": [spec.base_to_laser.x_m, spec.base_to_laser.y_m, spec.base_to_laser.yaw_rad],
+            "sweep_s": round(float(spec.beam_times_s.max()), 6),
         }
     return info
 
@@ -75,4 +76,5 @@ def print_info(info: dict[str, Any]) -> None:
         print(f"scanner   {info['scans']} scans{read} of {s['beams']} beams, field of view {s['fov_deg']}° "
               f"(from {s['angle_min_deg']}° in {s['angle_increment_deg']}° steps), "
               f"range {s['range_min_m']}–{s['range_max_m']} m, mount at ({mount[0]:.3f}, {mount[1]:.3f}) m, "
-              f"turned {math.degrees(mount[2]):.1f}°")
+              f"turned {math.degrees(mount[2]):.1f}°"
+              + (f", each sweep {s['sweep_s'] * 1e3:.1f} ms (deskewed by the SLAM)" if s["sweep_s"] else ""))

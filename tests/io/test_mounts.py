@@ -12,6 +12,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from mcnkit.io import LogContent, LogWarning, open_log, write_log
+from mcnkit.io.info import describe
 from mcnkit.types import Pose2D
 
 TS = get_typestore(Stores.ROS2_HUMBLE)
@@ -124,6 +125,7 @@ def test_the_time_between_beams_survives_a_conversion(tmp_path: Path) -> None:
     write_mounted_bag(tmp_path / "robot", "/tf_static", upside_down=True)
     with open_log(tmp_path / "robot") as log:
         spec = log.lidar_spec
+        assert describe(log)["scanner"]["sweep_s"] == pytest.approx(BETWEEN_BEAMS_S * (N_BEAMS - 1), abs=1e-6)
         out = write_log(tmp_path / "again.mcap", LogContent(log.frames()))
     with open_log(out) as again:
         assert again.lidar_spec.time_increment_s == pytest.approx(spec.time_increment_s, rel=1e-6)
