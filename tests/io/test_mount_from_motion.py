@@ -65,6 +65,17 @@ def test_a_turned_scanner_is_found_from_the_motion(tmp_path: Path, mit_first_met
         assert (np.linalg.norm(world_points(a) - world_points(b), axis=1) < 0.08 + reach_m * math.sin(math.radians(2))).all()
 
 
+def test_the_odometry_on_tf_alone_tells_it_too(tmp_path: Path, mit_first_metres: list[Frame]) -> None:
+    """A bag whose odometry is only the ``odom -> base_link`` transform on ``/tf`` (no Odometry topic)."""
+    mount = Pose2D(0.0, 0.0, -math.pi / 2)
+    bag = write_log(tmp_path / "tf_only.mcap", LogContent(list(as_mounted(mit_first_metres, mount)), odom_topic=None,
+                                                          mount_transform=False))
+    with pytest.warns(LogWarning, match="from the robot.s first 8 m, the scanner points -"):
+        with open_log(bag) as log:
+            assert log.odom_source == "tf:odom->base_link"
+            assert math.degrees(abs(math.remainder(log.lidar_spec.base_to_laser.yaw_rad + math.pi / 2, math.tau))) < 2.0
+
+
 def test_a_scanner_facing_forward_stays_so(tmp_path: Path, mit_first_metres: list[Frame]) -> None:
     bag = write_log(tmp_path / "no_tf_static.mcap", LogContent(mit_first_metres, mount_transform=False))
     with pytest.warns(LogWarning, match=r"the scanner is taken to sit at the base, facing forward \(the robot's first "
