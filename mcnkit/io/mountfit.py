@@ -18,6 +18,7 @@ robot *drives*: a robot that only turns in place sees the same map at every yaw.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
@@ -68,16 +69,17 @@ class MountFit:
 
 
 def mount_sample(frames: Iterable[Frame], *, path_m: float = 8.0, step_m: float = 0.1,
-                 step_rad: float = math.radians(5.0), max_frames: int = 150) -> MountSample:
+                 step_rad: float = math.radians(5.0), max_frames: int = 150, max_read: int = 20_000) -> MountSample:
     """The first stretch of ``frames`` with odometry, one frame every ``step_m`` of travel or ``step_rad`` of turn,
     until the robot drove ``path_m`` or ``max_frames`` were taken (a gap in the odometry starts the stretch anew).
-    ``frames`` is read only as far as that."""
+    ``frames`` is read only as far as that, and never past ``max_read`` frames (a robot that stands still for
+    minutes: what it drove by then is what the fit gets)."""
     poses: list[tuple[float, float, float]] = []
     index: list[NDArray[np.int32]] = []
     ranges: list[NDArray[np.float32]] = []
     angles: list[NDArray[np.float32]] = []
     travelled = 0.0
-    for f in frames:
+    for f in itertools.islice(frames, max_read):
         if not f.odom_known:
             if travelled < path_m:
                 poses, index, ranges, angles, travelled = [], [], [], [], 0.0
