@@ -265,15 +265,15 @@ class FastSlam:
         known = frame.odom_known and cfg.motion.odometry == "use"
         # ignored odometry stays frozen where the first scan was (nothing of it reaches the filter)
         odom = frame.odom.as_array() if cfg.motion.odometry == "use" else (np.zeros(3) if first else self._last_odom)
+        move = relative(self._last_odom, odom)
+        step_move = self._after_stall(move) if known and not first else move  # the odometry's step, where it applies
         if cfg.matching.deskew and frame.scan.spec.time_increment_s and not first:
-            frame = self._deskewed(frame, odom, known)
+            frame = self._deskewed(frame, step_move if known else None)
         beams = self._beams(frame)
         if first:
             self.poses[:] = odom
             tracked = odom.copy()
         else:
-            move = relative(self._last_odom, odom)
-            step_move = self._after_stall(move) if known else move  # the odometry's step, from where it applies
             residual = None  # this step's odometry against its scan-matched motion (the noise floor)
             dt_s = (frame.stamp_ns - self._scan_stamps[-1]) * 1e-9
             guess = self.prior.predict(dt_s if dt_s > 0 else None)
@@ -338,13 +338,14 @@ class FastSlam:
             scores,
         )
 
-    def _deskewed(self, frame: Frame, odom: F64, known: bool) -> Frame:
+    def _deskewed(self, frame: Frame, odometry_step: F64 | None) -> Frame:
         """``frame`` with its scan deskewed (:func:`~mcnkit.slam.deskew.deskew_ranges`): the robot moving through
-        the sweep at its velocity since the scan before, by the odometry where the step has one, else by the scans
-        (the tracked motion of the step before).  As logged where that velocity would turn or move the robot more
-        than ``_MAX_SWEEP_MOTION`` within the sweep (an odometry jump, not a motion)."""
-        if known:
-            dt_s, motion = (frame.stamp_ns - self._scan_stamps[-1]) * 1e-9, relative(self._last_odom, odom)
+        the sweep at its velocity since the scan before, by the odometry's step where it has one (``odometry_step``,
+        as :meth:`_after_stall` applies it), else by the scans (the tracked motion of the step before).  As logged
+        where that velocity would turn or move the robot more than ``_MAX_SWEEP_MOTION`` within the sweep (an
+        odometry jump, not a motion)."""
+        if odometry_step is not None:
+            dt_s, motion = (frame.stamp_ns - self._scan_stamps[-1]) * 1e-9, odometry_step
         elif len(self._scan_stamps) >= 2:
             dt_s, motion = (self._scan_stamps[-1] - self._scan_stamps[-2]) * 1e-9, self._last_motion
         else:
