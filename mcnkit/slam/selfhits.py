@@ -21,7 +21,7 @@ length is filtered as it streams.
 
 Example:
     >>> hits = SelfHits(reach_m=0.3, tolerance_m=0.05)
-    >>> for _ in range(10):  # a turn in place of 1 rad, one beam on a standoff
+    >>> for _ in range(17):  # a turn in place of 1.7 rad, one beam on a standoff
     ...     out = hits.filter(np.array([0.14, 2.0, 3.0], np.float32), turned_rad=0.1)
     >>> out
     array([nan,  2.,  3.], dtype=float32)
