@@ -61,9 +61,6 @@ _GT_NAME = re.compile(r"ground_?truth|(^|/)gt($|/|_)|truth", re.IGNORECASE)
 _PENDING_NS = 10_000_000_000
 _SPEC_SCANS = 5  # the scanner is what most of the first scans say
 _MAX_SWEEP_S = 0.5  # the slowest spinning scanners turn twice a second; a longer "sweep" is not one
-_MOUNT_FIT_MIN_PATH_M = 2.0  # the robot must drive this far for its motion to tell where the scanner points
-_MOUNT_FIT_MIN_TURN_RAD = math.radians(10.0)  # a scanner found this close to facing forward is taken to face forward
-_MOUNT_FIT_MIN_GAIN = 1.1  # and one found turned must make a map this much sharper than facing forward
 
 
 def resample_beams(ranges_m: np.ndarray, angle_min_rad: float, angle_increment_rad: float,
@@ -210,41 +207,22 @@ class BagLog(LogReader):
         return mount, upside_down
 
     def _mount_from_motion(self, facing_forward: LidarSpec) -> tuple[Pose2D, bool, str]:
-        """The mount that makes the sharpest map of the log's first metres (:func:`~mcnkit.io.mountfit.fit_mount`)
-        where it turns the scanner plainly away from facing forward; else the scanner at the base, facing forward.
-        Also what was found, in words."""
-        from mcnkit.io.mountfit import fit_mount, mount_sample  # numba, for the logs that need it only
+        """:func:`mcnkit.io.mountfit.mount_from_motion` on the log's frames as :meth:`frames` gives them, read with
+        the scanner facing forward."""
+        from mcnkit.io.mountfit import mount_from_motion  # numba, for the logs that need it only
 
         self._spec = facing_forward
         skipped: Counter[str] = Counter()
-        frames = plausible_frames(self.path, self._read_frames(skipped), skipped)  # as frames() gives them
+        frames = plausible_frames(self.path, self._read_frames(skipped), skipped)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", LogWarning)  # the frames are read again, and warn then
-                sample = mount_sample(frames)
+                return mount_from_motion(frames)
         except LogError:
-            sample = None
+            return Pose2D(), False, "the scanner is taken to sit at the base, facing forward"
         finally:
             frames.close()
             self._spec = None
-        forward = "the scanner is taken to sit at the base, facing forward"
-        if sample is None:
-            return Pose2D(), False, forward
-        if sample.path_m < _MOUNT_FIT_MIN_PATH_M:
-            return Pose2D(), False, (forward + f" (the robot drives {sample.path_m:.1f} m in the stretch looked at: too "
-                                               "little to find the scanner's direction from the motion)")
-        fit = fit_mount(sample)
-        best = (f"the sharpest map has the scanner at {math.degrees(fit.yaw_rad):.0f}°"
-                f"{', upside down' if fit.upside_down else ''}, {fit.sharpness_gain:.2f}× as sharp")
-        if not (abs(fit.yaw_rad) > _MOUNT_FIT_MIN_TURN_RAD or fit.upside_down):
-            return Pose2D(), False, forward + f" (the robot's first {fit.path_m:.0f} m agree with it: {best})"
-        if fit.sharpness_gain < _MOUNT_FIT_MIN_GAIN:
-            return Pose2D(), False, forward + f" (the robot's first {fit.path_m:.0f} m do not tell: {best})"
-        mount = Pose2D(fit.x_m, fit.y_m, fit.yaw_rad)
-        return mount, fit.upside_down, (
-            f"from the robot's first {fit.path_m:.0f} m, the scanner points {math.degrees(fit.yaw_rad):.1f}° from the "
-            f"base's x axis{', upside down (its beams sweep clockwise)' if fit.upside_down else ''}, at "
-            f"({fit.x_m:.2f}, {fit.y_m:.2f}) m (a map {fit.sharpness_gain:.1f}× as sharp as with it facing forward)")
 
     def _base_frame(self) -> str | None:
         """The robot's base frame as the odometry names it: the child of the ``/tf`` pair, or the Odometry topic's
@@ -312,8 +290,7 @@ class BagLog(LogReader):
     def _lidar_spec(self) -> LidarSpec:
         if self._spec is None:
             topic = self._require_scan()
-            seen: Counter[tuple[float, float, int, float, float, str]] = Counter()
-            sweeps: dict[tuple[float, float, int, float, float, str], list[float]] = {}
+            sweeps: dict[tuple[float, float, int, float, float, str], list[float]] = {}  # per geometry, its scans'
             problems = []
             for conn, _, raw in self._src.messages([topic]):
                 try:
@@ -332,17 +309,16 @@ class BagLog(LogReader):
                 if problem is None:
                     problem = spec_problem(LidarSpec(*key[:5]))
                 if problem is None:
-                    seen[key] += 1
                     sweeps.setdefault(key, []).append(float(s.time_increment_s))
                 else:
                     problems.append(problem)
-                if sum(seen.values()) + len(problems) >= _SPEC_SCANS:
+                if sum(map(len, sweeps.values())) + len(problems) >= _SPEC_SCANS:
                     break
-            if not seen:
+            if not sweeps:
                 if problems:
                     raise LogError(self.path, f"implausible scanner: {problems[0]}")
                 raise LogError(self.path, f"LaserScan topic {topic} has no (readable) messages")
-            key = seen.most_common(1)[0][0]
+            key = max(sweeps, key=lambda k: len(sweeps[k]))  # the commonest geometry (the first of a tie)
             amin, inc, n = key[:3]
             self._geometry = (amin, inc, n)
             mount, self._upside_down = self._base_to_laser(key[5], check_spec(self.path, LidarSpec(*key[:5])))

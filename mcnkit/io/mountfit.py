@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from mcnkit.types import Frame, Pose2D, Scan
 
-__all__ = ["MountFit", "MountSample", "as_mounted", "fit_mount", "mount_sample"]
+__all__ = ["MountFit", "MountSample", "as_mounted", "fit_mount", "mount_from_motion", "mount_sample"]
 
 _COARSE_STEP_RAD = math.radians(3.0)
 _FINE_STEP_RAD = math.radians(0.25)
@@ -38,6 +38,9 @@ _MAX_OFFSET_M, _COARSE_OFFSET_STEP_M, _FINE_OFFSET_STEP_M = 0.6, 0.15, 0.025
 _CANDIDATES = 4
 _MAX_RANGE_M = 15.0  # farther returns add smear from the odometry's own heading error, not information
 _COARSE_POINTS, _FINE_POINTS = 20_000, 60_000  # at most this many returns enter a score (thinned evenly beyond)
+MIN_PATH_M = 2.0  # the robot must drive this far for its motion to tell where the scanner points
+MIN_TURN_RAD = math.radians(10.0)  # a scanner found this close to facing forward is taken to face forward
+MIN_GAIN = 1.1  # and one found turned must make a map this much sharper than facing forward
 
 
 @dataclass(frozen=True)
@@ -181,6 +184,29 @@ def fit_mount(sample: MountSample) -> MountFit:
     forward = _sharpness(sample, 0.0, False, True)
     return MountFit(math.remainder(yaw, math.tau), flip, round(offset[0], 6), round(offset[1], 6),
                     score / forward if forward > 0 else 1.0, sample.path_m)
+
+
+def mount_from_motion(frames: Iterable[Frame]) -> tuple[Pose2D, bool, str]:
+    """The mount ``frames`` (read with the scanner facing forward at the base) show, whether the scanner is upside
+    down, and what was found, in words: the sharpest map's mount (:func:`fit_mount`) where it is plainly turned
+    (more than ``MIN_TURN_RAD`` or upside down, and ``MIN_GAIN`` times as sharp as facing forward); else the scanner
+    at the base, facing forward (also where the robot drives less than ``MIN_PATH_M``)."""
+    forward = "the scanner is taken to sit at the base, facing forward"
+    sample = mount_sample(frames)
+    if sample.path_m < MIN_PATH_M:
+        return Pose2D(), False, (forward + f" (the robot drives {sample.path_m:.1f} m in the stretch looked at: too "
+                                           "little to find the scanner's direction from the motion)")
+    fit = fit_mount(sample)
+    best = (f"the sharpest map has the scanner at {math.degrees(fit.yaw_rad):.0f}°"
+            f"{', upside down' if fit.upside_down else ''}, {fit.sharpness_gain:.2f}× as sharp")
+    if not (abs(fit.yaw_rad) > MIN_TURN_RAD or fit.upside_down):
+        return Pose2D(), False, forward + f" (the robot's first {fit.path_m:.0f} m agree with it: {best})"
+    if fit.sharpness_gain < MIN_GAIN:
+        return Pose2D(), False, forward + f" (the robot's first {fit.path_m:.0f} m do not tell: {best})"
+    return Pose2D(fit.x_m, fit.y_m, fit.yaw_rad), fit.upside_down, (
+        f"from the robot's first {fit.path_m:.0f} m, the scanner points {math.degrees(fit.yaw_rad):.1f}° from the "
+        f"base's x axis{', upside down (its beams sweep clockwise)' if fit.upside_down else ''}, at "
+        f"({fit.x_m:.2f}, {fit.y_m:.2f}) m (a map {fit.sharpness_gain:.1f}× as sharp as with it facing forward)")
 
 
 def as_mounted(frames: Iterable[Frame], mount: Pose2D, upside_down: bool = False) -> Iterator[Frame]:

@@ -208,6 +208,11 @@ class FastSlam:
                 f"none the filter could use ({self.n_unknown_motion} missing in the log, {self.n_odometry_rejected} "
                 "contradicted by the scans): their motion was found from the scans alone")
 
+    def notes(self) -> list[str]:
+        """The lines a finished run reports: :meth:`odometry_note` and :meth:`self_hit_note` where they say
+        something."""
+        return [n for n in (self.odometry_note(), self.self_hit_note()) if n is not None]
+
     def self_hit_note(self) -> str | None:
         """One line on the returns of the robot's own body that were dropped, or None when there were none."""
         hits = self.self_hits

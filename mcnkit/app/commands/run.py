@@ -105,9 +105,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         if summary.scans == 0:
             return 0 if outcome.interrupted else fail("run", f"{args.log}: no scans")
-        for note in ((mcn.slam.odometry_note(), mcn.slam.self_hit_note()) if not outcome.interrupted else ()):
-            if note is not None:
-                warnings.warn(note, stacklevel=1)
+        for note in mcn.slam.notes() if not outcome.interrupted else ():
+            warnings.warn(note, stacklevel=1)
         share = summary.cpu_s_recording / max(summary.cpu_s, 1e-9)
         stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
         stopped += ", lidar-only (motion from the scans alone)" if mcn.slam.lidar_only else ""

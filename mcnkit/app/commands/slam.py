@@ -185,9 +185,8 @@ def run_slam(args: argparse.Namespace) -> int:
                 return 0  # stopped before the first scan: main() reports the signal
             return fail("slam", f"{args.log}: no scans")
         summary = outputs.summary
-        for note in ((slam.odometry_note(), slam.self_hit_note()) if not outcome.interrupted else ()):
-            if note is not None:
-                warnings.warn(note, stacklevel=1)
+        for note in slam.notes() if not outcome.interrupted else ():
+            warnings.warn(note, stacklevel=1)
         stopped = f" (stopped by {outcome.stopped_by})" if outcome.interrupted else ""
         lidar = ", lidar-only (motion from the scans alone)" if slam.lidar_only else ""
         print(
