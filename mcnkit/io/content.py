@@ -8,10 +8,13 @@ from dataclasses import dataclass
 from mcnkit.io.base import GroundTruthMap
 from mcnkit.types import Frame, Trajectory
 
-__all__ = ["FORMATS", "LogContent"]
+__all__ = ["BAG_COMPRESSIONS", "FORMATS", "LogContent"]
 
 # Output formats of :func:`mcnkit.io.write_log` and ``mcnkit convert --format``.
 FORMATS = ("ros1", "ros2-sqlite3", "ros2-mcap", "mcap")
+BAG_COMPRESSIONS = ("file", "message")
+"""A rosbag2 folder's own zstd compression (``metadata.yaml``'s ``compression_mode``, any case): each bag file as
+a whole, or each message."""
 
 
 @dataclass(frozen=True)

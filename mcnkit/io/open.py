@@ -4,6 +4,7 @@
 |---------------------------------------------|-------------------------------------------------|-------------------|
 | ROS1 bag                                    | ``#ROSBAG V2.0`` magic                          | ``ros1``          |
 | ROS2 bag folder, sqlite3 / mcap storage     | ``metadata.yaml`` (or ``.db3``/``.mcap`` files) | ``ros2-sqlite3``, ``ros2-mcap`` |
+| the same, rosbag2-compressed (file/message) | ``compression_mode`` in ``metadata.yaml``       | as above          |
 | MCAP file, ROS2 (cdr) or ROS1 profile       | MCAP magic                                      | ``mcap-ros2``, ``mcap-ros1`` |
 | zstd-, bz2- or gzip-compressed file of these | the compressor's magic, then the above         | as above          |
 | CARMEN ``.clf``/``.log`` (gzip'd or not)    | a CARMEN keyword on the first line              | ``carmen``, ``carmen-corrected`` |
@@ -12,11 +13,13 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 from ruamel.yaml import YAML
 
 from mcnkit.io.bag import BagLog
+from mcnkit.io.bagcompression import DecompressedSource, decompressed_copies, file_compression, mode_and_format
 from mcnkit.io.base import LogReader
 from mcnkit.io.carmen import CarmenLog, is_carmen
 from mcnkit.io.errors import LogError, as_log_error
@@ -96,6 +99,7 @@ def _mcap_format(source: McapSource) -> tuple[str, RawSource]:
 
 def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
     meta = path / "metadata.yaml"
+    mode = None
     if meta.exists():
         check_regular(meta)
         check_size(meta, "a metadata file", meta.stat().st_size, MAX_DEFINITION_BYTES)
@@ -107,17 +111,31 @@ def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
             raise LogError(meta, f"not a rosbag2 metadata file ({type(err).__name__})") from err
         if missing := [f.name for f in files if not f.exists()]:
             raise LogError(path, f"bag files listed in metadata.yaml are missing: {missing}")
-        if info.get("compression_mode"):
-            raise LogError(path, f"rosbag2 {info['compression_mode']}-level compression is not supported")
-    else:
-        files = sorted(path.glob("*.db3")) or sorted(path.glob("*.mcap"))
-        storage = "sqlite3" if files and files[0].suffix == ".db3" else "mcap"
+        mode, _ = mode_and_format(info, path)
+    else:  # no metadata (a recording cut short): the files by their names, whole-file compressed ones too
+        for suffix in (".db3", ".mcap"):
+            files = sorted([*path.glob(f"*{suffix}"), *path.glob(f"*{suffix}.zstd")])
+            if files:
+                break
+        storage = "sqlite3" if files and ".db3" in files[0].name else "mcap"
     if not files:
         raise LogError(path, "a folder that is not a ROS2 bag (no metadata.yaml, no .db3 or .mcap files)")
     for f in files:
         check_regular(f)
+    kinds = file_compression(files)
+    if storage not in ("sqlite3", "mcap"):
+        raise LogError(path, f"unsupported rosbag2 storage {storage!r}")
+    owned = None
     if storage == "sqlite3":
-        return "ros2-sqlite3", SqliteSource(path, files)
-    if storage == "mcap":
-        return "ros2-mcap", McapSource(path, files)
-    raise LogError(path, f"unsupported rosbag2 storage {storage!r}")
+        owned, plain = decompressed_copies(files, kinds)
+        try:
+            source: RawSource = SqliteSource(path, plain, shown=files)
+        except BaseException:
+            if owned is not None:
+                shutil.rmtree(owned, ignore_errors=True)
+            raise
+    else:
+        source = McapSource(path, files, compression={str(f): k for f, k in kinds.items()})
+    if mode == "message" or owned is not None:
+        source = DecompressedSource(source, per_message=mode == "message", owned=owned)
+    return f"ros2-{storage}", source

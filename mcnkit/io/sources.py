@@ -164,12 +164,12 @@ class Ros1BagSource(RawSource):
 
 class McapSource(RawSource):
     """One or more MCAP files (a split ROS2 bag folder has several), merged in time order.  ``compression``: the
-    file is compressed as a whole (``gzip``/``bz2``/``zstd``) and is read as a stream."""
+    files are compressed as a whole (``gzip``/``bz2``/``zstd``; or one per file, by path) and are read as streams."""
 
-    def __init__(self, path: Path, files: list[Path], compression: str | None = None) -> None:
+    def __init__(self, path: Path, files: list[Path], compression: str | dict[str, str | None] | None = None) -> None:
         self.path = path
         self._files = files
-        self._compression = compression
+        self._compression = compression if isinstance(compression, dict) else {str(f): compression for f in files}
         self.connections = []
         self._plain: dict[str, FileBytes] = {}
         self._summaries: dict[str, Summary] = {}
@@ -179,8 +179,9 @@ class McapSource(RawSource):
 
     def _bytes(self, f: Path) -> ByteSource:
         """A reader of ``f``'s bytes: the shared one of a plain file, a new stream of a compressed one."""
-        if self._compression is not None:
-            return StreamBytes(f, self._compression)
+        kind = self._compression.get(str(f))
+        if kind is not None:
+            return StreamBytes(f, kind)
         if str(f) not in self._plain:
             self._plain[str(f)] = FileBytes(f)
         return self._plain[str(f)]

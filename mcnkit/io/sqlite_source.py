@@ -18,26 +18,27 @@ __all__ = ["SqliteSource"]
 
 
 class SqliteSource(RawSource):
-    """The sqlite3 files of a ROS2 bag folder (split bags: several files, merged in time order)."""
+    """The sqlite3 files of a ROS2 bag folder (split bags: several files, merged in time order).  ``shown``: the
+    names errors and warnings give the files (the compressed originals of decompressed copies); default ``files``."""
 
-    def __init__(self, path: Path, files: list[Path]) -> None:
+    def __init__(self, path: Path, files: list[Path], shown: list[Path] | None = None) -> None:
         self.path = path
         self._dbs: list[tuple[Path, sqlite3.Connection]] = []
         self.connections = []
         merged: dict[tuple[str, str], Connection] = {}
-        for f in files:
+        for f, shown_as in zip(files, shown or files, strict=True):
             try:
                 db = sqlite3.connect(_readonly_uri(f), uri=True)
                 topics = db.execute("SELECT id, name, type, serialization_format FROM topics").fetchall()
                 counts = dict(db.execute("SELECT topic_id, count(*) FROM messages GROUP BY topic_id").fetchall())
                 defs = _sqlite_definitions(db)
             except sqlite3.DatabaseError as err:
-                raise LogError(f, f"not a readable rosbag2 sqlite3 file ({err})") from err
-            _quick_check(f, db)
+                raise LogError(shown_as, f"not a readable rosbag2 sqlite3 file ({err})") from err
+            _quick_check(shown_as, db)
             self._dbs.append((f, db))
             for tid, name, msgtype, fmt in topics:
                 if fmt != "cdr":
-                    warn_skipped(f, f"topic {name} uses serialization {fmt!r}, not cdr; skipped")
+                    warn_skipped(shown_as, f"topic {name} uses serialization {fmt!r}, not cdr; skipped")
                     continue
                 d, dfmt = defs.get(msgtype, ("", "msg"))
                 c = Connection((str(f), tid), name, normalize_msgtype(msgtype), "cdr", d, dfmt, counts.get(tid, 0))

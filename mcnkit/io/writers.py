@@ -21,16 +21,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import zstandard
 from mcap.reader import make_reader as make_mcap_reader
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Ros2Writer
+from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 from rosbags.typesys.store import Typestore
+from ruamel.yaml import YAML
 
 from mcnkit.geometry import yaw_to_quaternion
-from mcnkit.io.content import FORMATS, LogContent
+from mcnkit.io.content import BAG_COMPRESSIONS, FORMATS, LogContent
 from mcnkit.io.decode import MessageDecoder
 from mcnkit.io.errors import LogError
 from mcnkit.types import Frame, Pose2D
@@ -168,9 +171,12 @@ def _write_ros1(path: Path, content: LogContent, ts: Typestore) -> None:
             writer.write(conns[topic], stamp, ts.serialize_ros1(msg, _TYPES[kind]))
 
 
-def _write_ros2(path: Path, content: LogContent, ts: Typestore, storage: StoragePlugin) -> None:
+def _write_ros2(path: Path, content: LogContent, ts: Typestore, storage: StoragePlugin, per_message: bool) -> None:
     b = _Msgs(ts, ros1=False)
-    with Ros2Writer(path, version=9, storage_plugin=storage) as writer:
+    writer = Ros2Writer(path, version=9, storage_plugin=storage)
+    if per_message:
+        writer.set_compression(CompressionMode.MESSAGE, CompressionFormat.ZSTD)
+    with writer:
         conns = {t: writer.add_connection(t, _TYPES[k], typestore=ts) for t, k in _topics(content).items()}
         for topic, kind, stamp, msg in _messages(content, b):
             writer.write(conns[topic], stamp, ts.serialize_cdr(msg, _TYPES[kind]))
@@ -217,20 +223,52 @@ def _write_mcap(path: Path, content: LogContent, ts: Typestore, ros1: bool, chun
         w.finish()
 
 
+def _compress_bag_files(folder: Path) -> None:
+    """Compresses every file of a rosbag2 folder as a whole (``x_0.db3`` -> ``x_0.db3.zstd``) and says so in its
+    metadata, as ``ros2 bag record --compression-mode file --compression-format zstd`` does."""
+    meta = folder / "metadata.yaml"
+    cctx = zstandard.ZstdCompressor(level=3)
+    for f in sorted(folder.iterdir()):
+        if f != meta:
+            with open(f, "rb") as src, open(f.with_name(f.name + ".zstd"), "wb") as dst:
+                cctx.copy_stream(src, dst)
+            f.unlink()
+    _set_compression(meta, "FILE", rename=lambda name: name + ".zstd")
+
+
+def _set_compression(meta: Path, mode: str, rename: Callable[[str], str] = lambda name: name) -> None:
+    """Writes ``mode`` (``FILE``/``MESSAGE``, upper case as rosbag2 writes it) and zstd into a rosbag2
+    ``metadata.yaml``, renaming its files' paths by ``rename``."""
+    yaml = YAML()
+    doc = yaml.load(meta.read_text())
+    info = doc["rosbag2_bagfile_information"]
+    info["relative_file_paths"] = [rename(p) for p in info["relative_file_paths"]]
+    for entry in info.get("files", []):
+        entry["path"] = rename(entry["path"])
+    info["compression_format"], info["compression_mode"] = "zstd", mode
+    with open(meta, "w") as f:
+        yaml.dump(doc, f)
+
+
 def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, overwrite: bool = False,
-              mcap_chunk_bytes: int = 1 << 20) -> Path:
+              mcap_chunk_bytes: int = 1 << 20, compression: str | None = None) -> Path:
     """Writes ``content`` to ``path`` in ``fmt`` (one of :data:`FORMATS` or ``mcap-ros1``; default by suffix).
 
     ``mcap_chunk_bytes``: the (uncompressed) chunk size of a plain MCAP file (1 MiB, like ``ros2 bag record``);
-    each chunk carries its own CRC, so a damaged file loses only the chunks that were hit.
+    each chunk carries its own CRC, so a damaged file loses only the chunks that were hit.  ``compression``: a
+    rosbag2 folder's own zstd compression, ``"file"`` (each bag file as a whole) or ``"message"`` (each message),
+    as ``ros2 bag record --compression-mode`` writes them; None: none.
 
     Raises:
-        LogError: unknown format, nothing to write, or ``path`` exists and ``overwrite`` is False.
+        LogError: unknown format or compression, nothing to write, or ``path`` exists and ``overwrite`` is False.
     """
     path = Path(path)
     fmt = fmt or infer_format(path)
     if fmt not in (*FORMATS, "mcap-ros1"):
         raise LogError(path, f"unknown output format {fmt!r} (choose from {', '.join(FORMATS)})")
+    if compression not in (None, *BAG_COMPRESSIONS) or (compression and fmt not in ("ros2-sqlite3", "ros2-mcap")):
+        raise LogError(path, f"compression {compression!r}: rosbag2 folders (ros2-sqlite3, ros2-mcap) take "
+                             f"{' or '.join(BAG_COMPRESSIONS)}")
     if path.exists() and not overwrite:
         raise LogError(path, "exists already (pass overwrite=True or --overwrite)")
     frames = iter(content.frames)
@@ -247,11 +285,15 @@ def write_log(path: str | Path, content: LogContent, fmt: str | None = None, *, 
             _write_ros1(partial, content, decoder.typestore("ros1"))
         elif fmt in ("ros2-sqlite3", "ros2-mcap"):
             plugin = StoragePlugin.SQLITE3 if fmt == "ros2-sqlite3" else StoragePlugin.MCAP
-            _write_ros2(partial, content, decoder.typestore("cdr"), plugin)
+            _write_ros2(partial, content, decoder.typestore("cdr"), plugin, per_message=compression == "message")
             if plugin == StoragePlugin.MCAP:
                 for f in partial.glob("*.mcap"):
                     _add_mcap_crcs(f, mcap_chunk_bytes)
             _rename_bag_files(partial, path.name)
+            if compression == "file":
+                _compress_bag_files(partial)
+            elif compression == "message":
+                _set_compression(partial / "metadata.yaml", "MESSAGE")
         else:
             _write_mcap(partial, content, decoder.typestore("ros1" if fmt == "mcap-ros1" else "cdr"),
                         ros1=fmt == "mcap-ros1", chunk_bytes=mcap_chunk_bytes)

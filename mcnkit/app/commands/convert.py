@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from mcnkit.app.commands.info import SourceOptions
 from mcnkit.app.options import add_options
-from mcnkit.io.content import FORMATS, LogContent
+from mcnkit.io.content import BAG_COMPRESSIONS, FORMATS, LogContent
 
 if TYPE_CHECKING:
     from mcnkit.types import Frame
@@ -28,6 +28,9 @@ class ConvertOptions(SourceOptions):
     """output file (.bag, .mcap) or folder (ROS2 bag)"""
     format: str | None = None
     """output format (default from OUTPUT: .bag → ros1, .mcap → mcap, else ros2-mcap)"""
+    compression: str | None = None
+    """a ROS2 bag folder's own zstd compression, of each bag file (file) or of each message (message), as ros2 bag
+    record --compression-mode writes it (default none)"""
     overwrite: bool = False
     """replace OUTPUT if it exists"""
     quiet: bool = False
@@ -56,10 +59,11 @@ def _convert(args: argparse.Namespace) -> int:
 
         content = LogContent(frames(), ground_truth=log.ground_truth(), ground_truth_map=log.ground_truth_map(),
                              odometry=not log.lidar_only)
-        out = write_log(args.output, content, fmt, overwrite=args.overwrite)
+        out = write_log(args.output, content, fmt, overwrite=args.overwrite, compression=args.compression)
     extra = " + ground truth" if content.ground_truth is not None else ""
     odometry = "with odometry, /tf" if content.odometry else "without odometry (lidar-only)"
-    print(f"wrote {out} ({fmt}): {written} scans {odometry}, /tf_static{extra}")
+    packed = f", {args.compression}-compressed" if args.compression else ""
+    print(f"wrote {out} ({fmt}{packed}): {written} scans {odometry}, /tf_static{extra}")
     return 0
 
 
@@ -71,5 +75,6 @@ def add_convert_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser])
         "write them as LaserScan, Odometry, /tf, /tf_static (+ ground truth). Lossless: read back, the frames "
         "are identical (float32 ranges, nanosecond stamps).",
     )
-    add_options(p, ConvertOptions, positional=("input", "output"), choices={"format": (*FORMATS, "mcap-ros1")})
+    add_options(p, ConvertOptions, positional=("input", "output"), choices={"format": (*FORMATS, "mcap-ros1"),
+                                                                        "compression": BAG_COMPRESSIONS})
     p.set_defaults(func=_convert)
