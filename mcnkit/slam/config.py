@@ -138,11 +138,12 @@ class MatchingConfig:
     odometry change and gmapping's pose (the last corrected pose plus the odometry change, which cannot drift),
     keeping the better-scoring match.  It changes no weight and no map, only the reported online trajectory
     (``FastSlam.trajectory(mode="online")``).  Off: the reported pose between updates is gmapping's."""
-    self_hit_m: float = 0.0
-    """When positive (0.3 for a TurtleBot 4), returns shorter than this that stay at one range on one beam while the
-    robot makes a quarter turn in place are the robot's own body (the standoffs and camera mount around its scanner)
-    and are dropped as no return from then on (:mod:`mcnkit.slam.selfhits`: driving along a wall at a fixed clearance
-    keeps a beam's range too, a quarter turn in place does not); 0: keep every return [m]."""
+    self_hit_m: float = 0.3
+    """Returns shorter than this that stay at one range on one beam while the robot makes a quarter turn in place are
+    the robot's own body (the standoffs and camera mount around a TurtleBot 4's scanner) and are dropped as no return
+    from then on (:mod:`mcnkit.slam.selfhits`: driving along a wall at a fixed clearance keeps a beam's range too, a
+    quarter turn in place does not); a robot whose body reaches farther from its scanner needs more; 0: keep every
+    return [m]."""
     self_hit_tolerance_m: float = 0.05
     """A beam's short returns within this of the first one it gave are the robot's own [m]."""
     deskew: bool = True
