@@ -1,8 +1,9 @@
-"""Damaged data: seeded byte-flip mutants of a ROS1 bag, an MCAP, a rosbag2 sqlite3 bag and a CARMEN log.
+"""Damaged data: seeded byte-flip mutants of a ROS1 bag, an MCAP, rosbag2 bags (sqlite3 and mcap storage, plain and
+compressed by rosbag2 itself, by file and by message) and a CARMEN log.
 
 The source logs are the first ``--scans`` scans of the Intel lab log (CARMEN text, kept as is), converted with
-``write_log`` (what ``mcnkit convert`` runs) to the three other formats.  Each mutant flips 1–16 bytes (XOR with a
-random non-zero byte; for the rosbag2 folder, in its ``.db3`` file) and runs, in a child process of its own
+``write_log`` (what ``mcnkit convert`` runs) to the other formats.  Each mutant flips 1–16 bytes (XOR with a
+random non-zero byte; for a rosbag2 folder, in its ``.db3``, ``.mcap`` or ``.db3.zstd`` file) and runs, in a child process of its own
 (forked from a warm parent; killed after ``--timeout`` seconds; peak RSS from ``os.wait4``):
 
 1. ``mcnkit info --json`` (through :func:`mcnkit.app.main.main`, output captured);
@@ -64,9 +65,12 @@ from mcnkit.types import Frame
 
 INTEL = ROOT.parent / "shared" / "data" / "reallab" / "intel" / "intel-corrected.log.gz"
 FORMATS = {"ros1": "log.bag", "mcap": "log.mcap", "ros2-sqlite3": "log_sqlite3", "carmen": "log.log",
-           "ros2-mcap": "log_mcap", "mcap-ros1": "log_ros1.mcap"}
+           "ros2-mcap": "log_mcap", "mcap-ros1": "log_ros1.mcap", "ros2-sqlite3-file": "log_sqlite3_zstd",
+           "ros2-mcap-message": "log_mcap_msgzstd"}
 """Every format the readers take; the four the readers were built for come first (``--formats`` picks)."""
-MCAP_FORMATS = ("mcap", "ros2-mcap", "mcap-ros1")
+COMPRESSED = {"ros2-sqlite3-file": ("ros2-sqlite3", "file"), "ros2-mcap-message": ("ros2-mcap", "message")}
+"""The rosbag2 folders that rosbag2 compressed itself: format name -> (write_log's format, its compression)."""
+MCAP_FORMATS = ("mcap", "ros2-mcap", "mcap-ros1", "ros2-mcap-message")
 """Formats whose data file is an MCAP: every silently changed mutant of these is checked against the CRCs."""
 CLASSES = ["clean error", "warned", "unchanged", "changed silently", "impossible", "traceback", "hang", "memory"]
 
@@ -120,8 +124,9 @@ def carmen_slice(n_scans: int, out: Path) -> Path:
 
 
 def data_file(path: Path) -> Path:
-    """The file the bytes are flipped in: the log itself, or a rosbag2 folder's .db3 / .mcap."""
-    return next(p for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")) if path.is_dir() else path
+    """The file the bytes are flipped in: the log itself, or a rosbag2 folder's .db3 / .mcap (or .db3.zstd)."""
+    return next(p for p in sorted(path.iterdir()) if p.name.endswith((".db3", ".mcap", ".zstd"))) if path.is_dir() \
+        else path
 
 
 def frame_key(frames: list[Frame]) -> list[tuple[int, bytes, tuple[float, float, float]]]:
@@ -262,7 +267,9 @@ def _run(args: argparse.Namespace, root: Path) -> dict[str, Any]:
             content = LogContent(list(log.frames()), ground_truth=log.ground_truth())
     clean = {"carmen": src} if "carmen" in args.formats else {}
     for fmt in [f for f in args.formats if f != "carmen"]:
-        clean[fmt] = write_log(root / "clean" / FORMATS[fmt], content, fmt, mcap_chunk_bytes=args.mcap_chunk_kib << 10)
+        base, compression = COMPRESSED.get(fmt, (fmt, None))
+        clean[fmt] = write_log(root / "clean" / FORMATS[fmt], content, base, mcap_chunk_bytes=args.mcap_chunk_kib << 10,
+                               compression=compression)
     reference = {}
     for fmt, path in clean.items():
         code, info, _ = run_info(path)
@@ -464,7 +471,8 @@ def main() -> int:
     p.add_argument("--seed", type=int, default=0, help="random seed of the mutations (default 0)")
     p.add_argument("--mutants", type=int, default=200, help="mutants per format (default 200)")
     p.add_argument("--formats", nargs="+", default=list(FORMATS), choices=list(FORMATS),
-                   help="formats to mutate (default: all six; ros2-mcap is a rosbag2 folder with MCAP storage)")
+                   help="formats to mutate (default: all eight; ros2-mcap is a rosbag2 folder with MCAP storage, "
+                        "ros2-sqlite3-file and ros2-mcap-message rosbag2 folders compressed by file and by message)")
     p.add_argument("--scans", type=int, default=300, help="scans in the source logs (default 300)")
     p.add_argument("--mcap-chunk-kib", type=int, default=32,
                    help="chunk size of the source MCAP, KiB (default 32: several chunks, so a flip loses one chunk, not the log)")

@@ -22,6 +22,8 @@ import zlib
 from collections.abc import Callable
 from pathlib import Path
 
+import zstandard
+
 from mcnkit.io import LogContent, write_log
 
 __all__ = ["CASES", "MAX_KNOWN_STEP_M", "MAX_RSS_MB", "TIME_LIMIT_S", "write_hostile"]
@@ -110,6 +112,33 @@ def _damaged_sqlite(folder: Path, content: LogContent) -> Path:
     return bag
 
 
+def _rosbag2_file_bomb(folder: Path, content: LogContent) -> Path:
+    """A file-compressed rosbag2 sqlite3 bag whose ``.db3.zstd`` decompresses to 2 GiB (a valid header, then
+    zeros): it would fill the temporary folder the reader decompresses it into."""
+    bag = write_log(folder / "zb", content, "ros2-sqlite3", compression="file")
+    packed = next(bag.glob("*.db3.zstd"))
+    header = zstandard.ZstdDecompressor().stream_reader(open(packed, "rb")).read(4096)
+    cctx = zstandard.ZstdCompressor(level=1)
+    with open(packed, "wb") as f, cctx.stream_writer(f) as w:
+        w.write(header)
+        zeros = bytes(1 << 20)
+        for _ in range(2 * _GIB >> 20):
+            w.write(zeros)
+    return bag
+
+
+def _rosbag2_message_bomb(folder: Path, content: LogContent) -> Path:
+    """A message-compressed rosbag2 sqlite3 bag one of whose scans decompresses to 1 GiB of zeros."""
+    bag = write_log(folder / "mb", content, "ros2-sqlite3", compression="message")
+    db = next(bag.glob("*.db3"))
+    bomb = zstandard.ZstdCompressor(level=1).compress(bytes(_GIB))
+    with sqlite3.connect(db) as conn:
+        (tid,) = conn.execute("SELECT id FROM topics WHERE name = '/scan'").fetchone()
+        conn.execute("UPDATE messages SET data = ? WHERE id = (SELECT min(id) FROM messages WHERE topic_id = ?)",
+                     (bomb, tid))
+    return bag
+
+
 def _misparsed_carmen(folder: Path, source: Path) -> Path:
     """The clean CARMEN log with one FLASER line that lost a field: its pose fields shift, its stamp reads as a
     heading, the robot would jump tens of metres (the 21 m step of issue 31)."""
@@ -135,6 +164,8 @@ CASES: dict[str, tuple[str, Callable[[Path, LogContent, Path], Path]]] = {
     ".mcap: magic and 10 GiB of zeros": ("refuse", lambda d, c, s: _sparse_mcap(d)),
     ".bag: a chunk claiming 3 GiB": ("either", lambda d, c, s: _huge_record(d, c)),
     "rosbag2 sqlite3: damaged pages": ("either", lambda d, c, s: _damaged_sqlite(d, c)),
+    "rosbag2 .db3.zstd: 2 GiB of zeros": ("refuse", lambda d, c, s: _rosbag2_file_bomb(d, c)),
+    "rosbag2 message compression: a 1 GiB scan": ("refuse", lambda d, c, s: _rosbag2_message_bomb(d, c)),
     "CARMEN: a misparsed line": ("read", lambda d, c, s: _misparsed_carmen(d, s)),
 }
 """Name -> (what a reader must do, writer(folder, clean content, clean CARMEN source))."""

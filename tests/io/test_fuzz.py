@@ -24,18 +24,23 @@ from mcnkit.io import LogContent, LogError, LogWarning, open_log, write_log
 from mcnkit.types import Frame
 from tests.conftest import make_frames
 
-_FORMATS = {"ros1": "log.bag", "mcap": "log.mcap", "mcap-ros1": "ros1.mcap", "ros2-sqlite3": "sq", "ros2-mcap": "mc"}
+_FORMATS = {"ros1": "log.bag", "mcap": "log.mcap", "mcap-ros1": "ros1.mcap", "ros2-sqlite3": "sq", "ros2-mcap": "mc",
+            "ros2-sqlite3-file": "sqz", "ros2-mcap-message": "mcm"}
+_COMPRESSED = {"ros2-sqlite3-file": ("ros2-sqlite3", "file"), "ros2-mcap-message": ("ros2-mcap", "message")}
 _CLEAN: dict[str, Path] = {}
 
 
 def _clean_log(fmt: str, root: Path) -> Path:
     if fmt not in _CLEAN:
-        _CLEAN[fmt] = write_log(root / _FORMATS[fmt], LogContent(make_frames(n=12, beams=6)), fmt)
+        base, compression = _COMPRESSED.get(fmt, (fmt, None))
+        _CLEAN[fmt] = write_log(root / _FORMATS[fmt], LogContent(make_frames(n=12, beams=6)), base,
+                                compression=compression)
     return _CLEAN[fmt]
 
 
 def _data_file(path: Path) -> Path:
-    return next(p for p in sorted(path.iterdir()) if p.suffix in (".db3", ".mcap")) if path.is_dir() else path
+    return next(p for p in sorted(path.iterdir()) if p.name.endswith((".db3", ".mcap", ".zstd"))) \
+        if path.is_dir() else path
 
 
 def _read_everything(path: Path) -> None:
