@@ -21,6 +21,7 @@ Example:
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -123,7 +124,7 @@ class UNet(nn.Module):
         cfg = self.config
         if cfg.noise_channels:
             b, _, h, w = x.shape
-            noise = torch.randn((b, cfg.noise_channels, h, w), generator=generator, device=x.device, dtype=x.dtype)
+            noise = _drawn(torch.randn, (b, cfg.noise_channels, h, w), x, generator)
             if not (self.training or sample):
                 noise = torch.zeros_like(noise)
             x = torch.cat([x, noise], dim=1)
@@ -144,8 +145,16 @@ class UNet(nn.Module):
 def _dropout(x: torch.Tensor, p: float, active: bool, generator: torch.Generator | None) -> torch.Tensor:
     if not active:
         return x
-    keep = torch.rand(x.shape, generator=generator, device=x.device, dtype=x.dtype) >= p
+    keep = _drawn(torch.rand, x.shape, x, generator) >= p
     return x * keep / (1.0 - p)
+
+
+def _drawn(fn: Callable[..., torch.Tensor], shape: Sequence[int], x: torch.Tensor,
+           generator: torch.Generator | None) -> torch.Tensor:
+    """Random numbers of ``shape`` for ``x``: drawn on the generator's own device, then moved to ``x``'s, so a
+    CPU generator serves a net on the GPU (and gives it the same draws as on the CPU)."""
+    device = generator.device if generator is not None else x.device
+    return fn(tuple(shape), generator=generator, device=device, dtype=x.dtype).to(x.device)
 
 
 class PatchDiscriminator(nn.Module):
