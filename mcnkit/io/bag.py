@@ -120,6 +120,7 @@ class BagLog(LogReader):
         odom: str | None = None, max_odom_gap_s: float = 0.25,
     ) -> None:
         self.path, self.format, self._src = path, fmt, source
+        self.compression = source.compression
         self._decoder = MessageDecoder()
         for c in source.connections:
             self._decoder.register(c.encoding, c.msgtype, c.definition, c.definition_format)

@@ -49,6 +49,9 @@ class LogReader(ABC):
     format: str
     laser_lines: int | None = None
     """How many laser records the log holds for the scan source, read or not (text logs; None: not counted)."""
+    compression: str | None = None
+    """How the log's container compresses it beyond its own chunks, as ``mcnkit info`` shows it (``"zstd, each
+    message (rosbag2)"``, ``"zstd, whole file"``); None: not at all."""
     odometry: str = "use"
     """``"use"``: frames carry the log's odometry; ``"ignore"``: read the log as if it had none (every frame's
     motion unknown, its odometry frozen at the origin), so that any log can be run lidar-only."""

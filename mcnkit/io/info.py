@@ -19,6 +19,7 @@ def describe(log: LogReader) -> dict[str, object]:
     info: dict[str, object] = {
         "path": str(log.path),
         "format": log.format,
+        "compression": log.compression,
         "start_ns": start,
         "end_ns": end,
         "duration_s": round((end - start) / 1e9, 3),
@@ -54,7 +55,7 @@ def _stamp_text(ns: int) -> str:
 def print_info(info: dict[str, Any]) -> None:
     """Prints :func:`describe`'s dict as ``mcnkit info`` shows it."""
     print(f"file      {info['path']}")
-    print(f"format    {info['format']}")
+    print(f"format    {info['format']}" + (f", compressed: {info['compression']}" if info.get("compression") else ""))
     print(f"start     {_stamp_text(info['start_ns'])}")
     print(f"end       {_stamp_text(info['end_ns'])}")
     print(f"duration  {info['duration_s']:.3f} s")

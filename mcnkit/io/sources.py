@@ -59,6 +59,9 @@ class RawSource:
 
     path: Path
     connections: list[Connection]
+    compression: str | None = None
+    """What the log's files or messages are compressed with beyond the container's own chunks (see
+    :attr:`mcnkit.io.base.LogReader.compression`)."""
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Messages of the given topics (all when None), in record-time order."""
@@ -170,6 +173,8 @@ class McapSource(RawSource):
         self.path = path
         self._files = files
         self._compression = compression if isinstance(compression, dict) else {str(f): compression for f in files}
+        kinds = sorted({k for k in self._compression.values() if k is not None})
+        self.compression = f"{', '.join(kinds)}, whole file" if kinds else None
         self.connections = []
         self._plain: dict[str, FileBytes] = {}
         self._summaries: dict[str, Summary] = {}

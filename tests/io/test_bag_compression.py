@@ -14,6 +14,7 @@ from ruamel.yaml import YAML
 
 from mcnkit.app.main import main
 from mcnkit.io import LogContent, LogError, open_log, write_log
+from mcnkit.io.info import describe
 from mcnkit.types import Frame
 from tests.io.test_roundtrip import assert_same_frames
 
@@ -38,7 +39,11 @@ def test_a_compressed_bag_reads_as_the_uncompressed_one(tmp_path: Path, frames: 
         assert log.format == storage
         assert_same_frames(frames, list(log.frames()))
         assert {t.name: t.count for t in log.topics}["/scan"] == len(frames)
+        assert describe(log)["compression"] == log.compression  # what mcnkit info shows beside the format
+        assert log.compression is not None and ("each message" if mode == "message" else "whole file") in log.compression
     assert set(os.listdir(tempfile.gettempdir())) <= temp_before  # a decompressed copy is removed on close
+    with open_log(write_log(tmp_path / "plain", LogContent(frames), storage)) as plain:
+        assert plain.compression is None
     with RosbagsReader(bag) as reader:  # the format rosbag2 writes, as an independent reader understands it
         assert sum(1 for c, _, _ in reader.messages() if c.topic == "/scan") == len(frames)
 
