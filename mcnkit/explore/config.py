@@ -95,8 +95,10 @@ class GainConfig:
     """How the ``mcn`` planner scores a frontier viewpoint from the K sampled completions (of the model the command
     line's ``--model`` names)."""
 
-    samples: int = 8
-    """K completions drawn at every planning step."""
+    samples: int = 32
+    """K completions drawn at every planning step.  The expected gain is their average, and its sampling noise
+    decides between viewpoints of about equal worth: with fewer samples, a long run turns back and forth between
+    far goals whose scores the noise swaps."""
     gain: GainKind = "unknown"
     """``unknown``: the area unknown in the SLAM map that a scan from the viewpoint would see, ray-cast through each
     sample's own walls, averaged over the samples; ``disagreement``: the same cells weighted by how much the
