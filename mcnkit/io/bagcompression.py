@@ -73,8 +73,8 @@ def file_compression(files: Iterable[Path]) -> dict[Path, str | None]:
 
 
 def decompressed_copies(files: Iterable[Path], kinds: Mapping[Path, str | None]) -> tuple[Path | None, list[Path]]:
-    """The files with every compressed one decompressed into a new temporary folder (None when none was), named as
-    the original without its compression suffix; the caller removes the folder.  A file that decompresses past the
+    """The files with every compressed one decompressed into a new temporary folder (None when none was), named by
+    its place in the list and its own name without the compression suffix; the caller removes the folder.  A file that decompresses past the
     ratio limit, or is damaged, raises :class:`LogError` naming it and leaves no folder behind."""
     folder: Path | None = None
     out: list[Path] = []
@@ -128,12 +128,17 @@ class DecompressedSource(RawSource):
         damaged = 0
         for conn, stamp, data in self.inner.messages(topics):
             limit = message_limit(conn.msgtype)
+            parts: list[bytes] = []
+            held = 0
             try:
                 with dctx.stream_reader(io.BytesIO(data), read_across_frames=True) as reader:
-                    raw = reader.read(limit + 1)
+                    while held <= limit and (part := reader.read(min(1 << 20, limit + 1 - held))):
+                        parts.append(part)
+                        held += len(part)
             except zstandard.ZstdError:
                 damaged += 1
                 continue
+            raw = b"".join(parts)
             check_size(self.path, f"a message on {conn.topic} at {stamp} ns, decompressed,", len(raw), limit)
             yield conn, stamp, raw
         if damaged:

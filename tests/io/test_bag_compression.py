@@ -21,6 +21,12 @@ from tests.io.test_roundtrip import assert_same_frames
 STORAGES = ("ros2-sqlite3", "ros2-mcap")
 
 
+def _copies() -> set[str]:
+    """The reader's temporary folders of decompressed bag files (other programs' files in the temporary folder are
+    not its business)."""
+    return {n for n in os.listdir(tempfile.gettempdir()) if n.startswith("mcnkit-bag-")}
+
+
 def _metadata(bag: Path) -> dict:
     return YAML(typ="safe").load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
 
@@ -34,14 +40,14 @@ def test_a_compressed_bag_reads_as_the_uncompressed_one(tmp_path: Path, frames: 
     assert (info["compression_mode"], info["compression_format"]) == (mode.upper(), "zstd")
     names = sorted(p.name for p in bag.iterdir())
     assert all(n.endswith(".zstd") for n in names if n != "metadata.yaml") == (mode == "file")
-    temp_before = set(os.listdir(tempfile.gettempdir()))
+    temp_before = _copies()
     with open_log(bag) as log:
         assert log.format == storage
         assert_same_frames(frames, list(log.frames()))
         assert {t.name: t.count for t in log.topics}["/scan"] == len(frames)
         assert describe(log)["compression"] == log.compression  # what mcnkit info shows beside the format
         assert log.compression is not None and ("each message" if mode == "message" else "whole file") in log.compression
-    assert set(os.listdir(tempfile.gettempdir())) <= temp_before  # a decompressed copy is removed on close
+    assert _copies() <= temp_before  # a decompressed copy is removed on close
     with open_log(write_log(tmp_path / "plain", LogContent(frames), storage)) as plain:
         assert plain.compression is None
     with RosbagsReader(bag) as reader:  # the format rosbag2 writes, as an independent reader understands it
@@ -74,12 +80,12 @@ def test_a_damaged_compressed_file_is_named_and_leaves_no_temporary_copy(tmp_pat
     bag = write_log(tmp_path / "bag", LogContent(frames), "ros2-sqlite3", compression="file")
     (packed,) = bag.glob("*.db3.zstd")
     packed.write_bytes(packed.read_bytes()[: packed.stat().st_size // 3])
-    temp_before = set(os.listdir(tempfile.gettempdir()))
+    temp_before = _copies()
     with pytest.raises(LogError) as err:
         with open_log(bag) as log:
             list(log.frames())
     assert err.value.path == packed
-    assert set(os.listdir(tempfile.gettempdir())) <= temp_before
+    assert _copies() <= temp_before
 
 
 def test_a_damaged_message_is_skipped_and_counted(tmp_path: Path, frames: list[Frame]) -> None:
