@@ -120,7 +120,6 @@ class BagLog(LogReader):
         odom: str | None = None, max_odom_gap_s: float = 0.25,
     ) -> None:
         self.path, self.format, self._src = path, fmt, source
-        self.compression = source.compression
         self._decoder = MessageDecoder()
         for c in source.connections:
             self._decoder.register(c.encoding, c.msgtype, c.definition, c.definition_format)
@@ -262,6 +261,11 @@ class BagLog(LogReader):
         return None
 
     # -- LogReader ----------------------------------------------------------------------------------------
+    @property
+    def compression(self) -> str | None:
+        """The source's (:attr:`mcnkit.io.sources.RawSource.compression`)."""
+        return self._src.compression
+
     @property
     def topics(self) -> list[TopicInfo]:
         """Every topic with its type and count."""

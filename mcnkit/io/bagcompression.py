@@ -114,9 +114,9 @@ class DecompressedSource(RawSource):
         self.connections = inner.connections
         self.per_message = per_message
         self._owned = owned
-        self.compression = "zstd, each message (rosbag2)" if per_message else inner.compression
-        if owned is not None:
-            self.compression = "zstd, whole file (rosbag2; read from a decompressed copy)"
+        self.compression = ("zstd, each message (rosbag2)" if per_message
+                            else "zstd, whole file (rosbag2; read from a decompressed copy)" if owned is not None
+                            else inner.compression)
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """The inner source's messages, each decompressed when ``per_message``; an undecodable one is skipped and

@@ -49,9 +49,6 @@ class LogReader(ABC):
     format: str
     laser_lines: int | None = None
     """How many laser records the log holds for the scan source, read or not (text logs; None: not counted)."""
-    compression: str | None = None
-    """How the log's container compresses it beyond its own chunks, as ``mcnkit info`` shows it (``"zstd, each
-    message (rosbag2)"``, ``"zstd, whole file"``); None: not at all."""
     odometry: str = "use"
     """``"use"``: frames carry the log's odometry; ``"ignore"``: read the log as if it had none (every frame's
     motion unknown, its odometry frozen at the origin), so that any log can be run lidar-only."""
@@ -75,6 +72,12 @@ class LogReader(ABC):
     @abstractmethod
     def lidar_spec(self) -> LidarSpec:
         """The scanner of the scan topic (from its first message), mount offset included."""
+
+    @property
+    def compression(self) -> str | None:
+        """How the log's container compresses it beyond its own chunks, as ``mcnkit info`` shows it (``"zstd, each
+        message (rosbag2)"``, ``"zstd, whole file"``); None: not at all."""
+        return None
 
     @property
     def lidar_only(self) -> bool:

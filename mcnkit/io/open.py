@@ -120,11 +120,11 @@ def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
         storage = "sqlite3" if files and ".db3" in files[0].name else "mcap"
     if not files:
         raise LogError(path, "a folder that is not a ROS2 bag (no metadata.yaml, no .db3 or .mcap files)")
+    if storage not in ("sqlite3", "mcap"):
+        raise LogError(path, f"unsupported rosbag2 storage {storage!r}")
     for f in files:
         check_regular(f)
     kinds = file_compression(files)
-    if storage not in ("sqlite3", "mcap"):
-        raise LogError(path, f"unsupported rosbag2 storage {storage!r}")
     owned = None
     if storage == "sqlite3":
         owned, plain = decompressed_copies(files, kinds)
