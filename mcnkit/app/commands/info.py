@@ -52,9 +52,9 @@ def add_info_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     """Registers ``mcnkit info``."""
     p = sub.add_parser(
         "info", help="show what a robot log holds",
-        description="Show a log's format, time span, topics (type and count), the detected scan and odometry "
-        "sources, and the scanner (beams, field of view, range). Reads ROS1 .bag, ROS2 bag folders "
-        "(sqlite3/mcap), .mcap (ROS1 or ROS2 profile) and CARMEN/DP-SLAM logs.",
+        description="Show a log's format and compression, time span, topics (type and count), the detected scan and "
+        "odometry sources, and the scanner (beams, field of view, range). Reads ROS1 .bag, ROS2 bag folders "
+        "(sqlite3/mcap, compressed by rosbag2 or not), .mcap (ROS1 or ROS2 profile) and CARMEN/DP-SLAM logs.",
     )
     add_options(p, InfoOptions, positional=("log",))
     p.set_defaults(func=_info)
