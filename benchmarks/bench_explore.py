@@ -278,6 +278,7 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "unknown, ratio, local 2.5 m": ("mcn", None, {"gain": "unknown", "local_m": 2.5}, {}),
     "unknown, ratio, local 4 m": ("mcn", None, {"gain": "unknown", "local_m": 4.0}, {}),
     "unknown, ratio, K = 8": ("mcn", None, {"gain": "unknown", "samples": 8}, {}),
+    "unknown, ratio, K = 64": ("mcn", None, {"gain": "unknown", "samples": 64}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and
 ExploreConfig fields over the defaults).  ``--study-models`` adds ``unknown, ratio`` and ``disagreement, ratio``
