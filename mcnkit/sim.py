@@ -205,7 +205,9 @@ def cast_rays(free: BoolArray, grid: GridSpec, laser_poses: F64, spec: LidarSpec
     """Exact noise-free ranges (F, B) from laser poses (F, 3) on the raster; ``inf`` where nothing is in range.
 
     Cells outside the grid count as occupied.  Every beam is sampled every ``resolution/4`` (in blocks; beams that hit stop); the first occupied
-    sample's cell is then intersected exactly with the ray (slab method).
+    sample's cell is then intersected exactly with the ray (slab method).  A beam that steps diagonally between two
+    occupied cells touching at a corner (a wall one pixel thick drawn at a slant) ends at that corner: a drawn wall
+    is closed where its pixels touch.
     """
     res = grid.resolution_m
     angles = laser_poses[:, 2:3] + spec.angles_rad[None, :]  # (F, B)
@@ -216,20 +218,41 @@ def cast_rays(free: BoolArray, grid: GridSpec, laser_poses: F64, spec: LidarSpec
     hit = np.zeros(dx.shape, bool)
     hr = np.zeros(dx.shape, np.int64)
     hc = np.zeros(dx.shape, np.int64)
-    active = np.arange(dx.size)
-    for b0 in range(0, t_all.size, 64):  # march in blocks; beams that hit drop out
-        t = t_all[b0 : b0 + 64][None, :]
-        cols = np.floor(ox[active, None] + dx[active, None] * t).astype(np.int64)  # (A, S)
-        rows = np.floor(oy[active, None] + dy[active, None] * t).astype(np.int64)
+    t_corner = np.full(dx.shape, np.inf)  # where a beam squeezed between two corner-touching occupied cells
+
+    def occupied(rows: NDArray[np.int64], cols: NDArray[np.int64]) -> BoolArray:
         inside = (rows >= 0) & (rows < grid.height) & (cols >= 0) & (cols < grid.width)
         occ = ~inside
         occ[inside] = ~free[rows[inside], cols[inside]]
-        any_hit = occ.any(axis=1)
-        first = np.argmax(occ, axis=1)[any_hit]
+        return occ
+
+    active = np.arange(dx.size)
+    for b0 in range(0, t_all.size, 64):  # march in blocks; beams that hit drop out
+        t = t_all[max(b0 - 1, 0) : b0 + 64][None, :]  # from the block before's last sample (free: the beam went on)
+        cols = np.floor(ox[active, None] + dx[active, None] * t).astype(np.int64)  # (A, S)
+        rows = np.floor(oy[active, None] + dy[active, None] * t).astype(np.int64)
+        occ = occupied(rows, cols)
+        r0, c0, r1, c1 = rows[:, :-1], cols[:, :-1], rows[:, 1:], cols[:, 1:]
+        squeeze = (r0 != r1) & (c0 != c1)  # (A, S-1): a diagonal step into sample 1..S-1 ...
+        squeeze[squeeze] = occupied(r0[squeeze], c1[squeeze]) & occupied(r1[squeeze], c0[squeeze])  # ... squeezed
+        event = occ.copy()
+        event[:, 1:] |= squeeze
+        any_hit = event.any(axis=1)
+        first = np.argmax(event, axis=1)[any_hit]
         idx = active[any_hit]
         hit[idx] = True
         hr[idx] = rows[any_hit, first]
         hc[idx] = cols[any_hit, first]
+        sq = np.zeros(first.shape, bool)
+        sq[first > 0] = squeeze[any_hit, :][first > 0, first[first > 0] - 1]
+        if sq.any():  # the corner the two cells share, projected on the beam; the slab search starts at one of them
+            j = first[sq]
+            rows_h, cols_h = rows[any_hit][sq], cols[any_hit][sq]
+            rp, cp = rows_h[np.arange(j.size), j - 1], cols_h[np.arange(j.size), j - 1]
+            rn, cn = rows_h[np.arange(j.size), j], cols_h[np.arange(j.size), j]
+            b = idx[sq]
+            t_corner[b] = (np.maximum(cp, cn) - ox[b]) * dx[b] + (np.maximum(rp, rn) - oy[b]) * dy[b]
+            hr[b], hc[b] = rp, cn
         active = active[~any_hit]
         if active.size == 0:
             break
@@ -255,6 +278,7 @@ def cast_rays(free: BoolArray, grid: GridSpec, laser_poses: F64, spec: LidarSpec
             t_in, t_out = np.maximum(lo_x, lo_y), np.minimum(hi_x, hi_y)
             crossed = occ_rc & hit & (t_in <= t_out) & (t_out >= 0)
             enter = np.where(crossed, np.minimum(enter, t_in), enter)
+    enter = np.minimum(enter, t_corner)
     ranges = np.maximum(enter, 0.0) * res
     ranges = np.where(hit & (ranges <= spec.range_max_m), ranges, np.inf)
     return ranges.reshape(angles.shape).astype(np.float32)

@@ -66,6 +66,21 @@ def test_lidar_matches_exact_ray_casting_in_a_room() -> None:
     )
 
 
+def test_a_slanted_wall_one_pixel_thick_stops_every_beam() -> None:
+    room = _room()
+    free = room.free.copy()
+    k = np.arange(60)
+    free[20 + k, 99 - k] = False  # a wall at 45° across the room, its pixels touching only at their corners
+    spec = LidarSpec(-np.pi, 2 * np.pi / 7200, 7200, 0.1, 8.0)
+    for pose in ([1.0, 0.8, 0.0], [0.4, 2.1, 1.0], [2.3, 0.3, -2.0]):
+        ranges = cast_rays(free, room.grid, np.array([pose]), spec)[0].astype(np.float64)
+        a = pose[2] + spec.angles_rad
+        x, y = pose[0] + ranges * np.cos(a), pose[1] + ranges * np.sin(a)
+        # the wall's pixels span x + y in [3.95, 4.05]; its near side, corners included, x + y in [3.95, 4.0]
+        assert np.isfinite(ranges).all() and (x + y).max() <= 4.0 + 1e-6
+        assert ((x + y) >= 3.95 - 1e-6).sum() > 1000  # the wall is seen, not only the room's walls before it
+
+
 def test_deterministic_per_seed(run: SimResult) -> None:
     again = simulate(plan_raster("procedural:4"), SHORT, seed=1)
     other = simulate(plan_raster("procedural:4"), SHORT, seed=2)

@@ -1,5 +1,6 @@
 """Visibility on a grid: rays marched half a cell at a time from origins, stopped by walls (one numba kernel for
-the expected gain of a viewpoint and for what the sensor saw)."""
+the expected gain of a viewpoint and for what the sensor saw).  Wall cells that touch at a corner close the wall
+between them, so a slanted wall one cell thick stops a ray as the simulated lidar's beams are stopped."""
 
 from __future__ import annotations
 
@@ -32,12 +33,17 @@ def _cast(walls: NDArray[np.bool_], weight: F64, origins_xy: F64, n_rays: int, r
             for b in range(n_rays):
                 ang = 2.0 * math.pi * b / n_rays
                 dx, dy = math.cos(ang), math.sin(ang)
+                pr, pc = -1, -1
                 for s in range(steps + 1):
                     t = 0.5 * s
                     c = int(math.floor(ox + dx * t))
                     r = int(math.floor(oy + dy * t))
                     if r < 0 or r >= h or c < 0 or c >= w:
                         break
+                    if (s > 0 and r != pr and c != pc and walls[k, pr, c] and walls[k, r, pc]
+                            and t >= start_cells):
+                        break  # between two wall cells that touch at a corner: a slanted wall one cell thick
+                    pr, pc = r, c
                     if stamp[r, c] != tag:
                         stamp[r, c] = tag
                         total += weight[r, c]
@@ -54,8 +60,8 @@ def cast_visibility(walls: BoolArray, weight: NDArray[np.floating] | None, origi
                     mask: BoolArray | None = None) -> F64:
     """For every origin (V, 2) ``[col, row]`` in cells and every wall layer (K, H, W): the summed ``weight`` (H, W;
     None: none) of the cells seen by ``n_rays`` rays over 360° reaching ``range_cells``, each cell counted once
-    (V, K).  A ray stops at the first wall cell (seen itself) at least ``start_cells`` from its origin; cells
-    outside the grid end it.  ``mask`` (H, W), when given, gets every cell seen marked True, in place."""
+    (V, K).  A ray stops at the first wall cell (seen itself), or where it passes between two wall cells touching at a
+    corner, at least ``start_cells`` from its origin; cells outside the grid end it.  ``mask`` (H, W), when given, gets every cell seen marked True, in place."""
     walls = np.ascontiguousarray(walls, dtype=np.bool_)
     if walls.ndim != 3:
         raise ValueError(f"walls must be (K, H, W), got {walls.shape}")

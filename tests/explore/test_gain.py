@@ -20,6 +20,16 @@ def test_an_open_square_is_seen_whole_and_a_wall_hides_what_is_behind_it() -> No
     assert mask[:, :7].all() and not mask[:, 7:].any()
 
 
+def test_a_slanted_wall_one_cell_thick_hides_what_is_behind_it() -> None:
+    walls = np.zeros((1, 40, 40), bool)
+    rows = np.arange(40)
+    walls[0, rows, 39 - rows] = True  # cells touching only at their corners: a drawn line at 45°
+    behind = np.add.outer(rows, rows) > 39  # row + col > 39: the far side of the line
+    for origin in ([10.5, 12.5], [3.2, 30.7], [25.9, 1.3]):
+        mask = visible_mask(walls[0], np.array(origin), 3600, 80.0)
+        assert mask[walls[0]].any() and not mask[behind].any()
+
+
 def test_range_and_weights_bound_the_gain() -> None:
     walls = np.zeros((1, 21, 21), bool)
     weight = np.zeros((21, 21))
