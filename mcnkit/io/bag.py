@@ -45,7 +45,7 @@ from mcnkit.geometry import quaternion_to_yaw
 from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
 from mcnkit.io.decode import MessageDecoder
 from mcnkit.io.errors import PARSE_ERRORS, LogError, LogWarning, as_log_error, warn_skipped
-from mcnkit.io.plausible import check_spec, plausible_frames, spec_problem
+from mcnkit.io.plausible import MAX_RANGE_M, check_spec, plausible_frames, spec_problem
 from mcnkit.io.sources import Connection, RawSource
 from mcnkit.io.stampcheck import StampCheck
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
@@ -297,16 +297,18 @@ class BagLog(LogReader):
             topic = self._require_scan()
             sweeps: dict[tuple[float, float, int, float, float, str], list[float]] = {}  # per geometry, its scans'
             problems = []
+            unstated: float | None = None  # a range_max that states no range
             for conn, _, raw in self._src.messages([topic]):
                 try:
                     s = self._decoder.scan(raw, conn.encoding)
                 except PARSE_ERRORS:
                     continue
                 rmin, rmax = float(s.range_min_m), float(s.range_max_m)
-                if not (np.isfinite(rmax) and rmax > max(rmin, 0.0)):
-                    finite = s.ranges_m[np.isfinite(s.ranges_m)]
-                    rmin, rmax = 0.0, float(finite.max(initial=0.0)) + 1.0
-                key = (float(s.angle_min_rad), float(s.angle_increment_rad), len(s.ranges_m), max(rmin, 0.0), rmax,
+                rmin = rmin if math.isfinite(rmin) and rmin > 0.0 else 0.0
+                if not (math.isfinite(rmax) and rmin < rmax <= MAX_RANGE_M):
+                    unstated = rmax  # inf, NaN, 0 or FLT_MAX: every finite reading from range_min on is a return
+                    rmin, rmax = (rmin, MAX_RANGE_M) if rmin < MAX_RANGE_M else (0.0, MAX_RANGE_M)
+                key = (float(s.angle_min_rad), float(s.angle_increment_rad), len(s.ranges_m), rmin, rmax,
                        s.frame_id.lstrip("/"))
                 problem = spec_problem(LidarSpec(*key[:3], 0.0, 1.0)) if key[2] > 0 else "no beams"
                 if problem is None and not 0.0 <= key[3] < key[4]:
@@ -324,6 +326,9 @@ class BagLog(LogReader):
                     raise LogError(self.path, f"implausible scanner: {problems[0]}")
                 raise LogError(self.path, f"LaserScan topic {topic} has no (readable) messages")
             key = max(sweeps, key=lambda k: len(sweeps[k]))  # the commonest geometry (the first of a tie)
+            if unstated is not None and key[4] == MAX_RANGE_M:
+                warnings.warn(f"{self.path}: {topic} states no range (range_max {unstated!r}): every finite reading "
+                              f"from {key[3]:g} m up to {MAX_RANGE_M:g} m is a return", LogWarning, stacklevel=2)
             amin, inc, n = key[:3]
             self._geometry = (amin, inc, n)
             mount, self._upside_down = self._base_to_laser(key[5], check_spec(self.path, LidarSpec(*key[:5])))

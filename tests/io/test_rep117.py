@@ -68,3 +68,26 @@ def test_the_skipped_scan_warning_names_each_reason_with_its_count(tmp_path: Pat
     with pytest.warns(LogWarning, match=r"skipped scans: 1 \(stamp out of bounds\), 1 \(stamp went backwards\)$"):
         got = list(plausible_frames("tb4", frames))
     assert len(got) == 10
+
+
+@pytest.mark.parametrize("stated", [np.inf, np.nan, 0.0, float(np.finfo(np.float32).max)])
+def test_a_scanner_that_states_no_range_keeps_every_finite_reading(tmp_path: Path, stated: float) -> None:
+    """pointcloud_to_laserscan (a 3-D lidar's ring as a LaserScan) states range_max inf by default; other drivers
+    leave it 0 or write FLT_MAX.  The first scans here reach 5 m, the later ones 60 m: all of them are returns."""
+    spec = LidarSpec(-np.pi, 2 * np.pi / 720, 720, 0.2, 100.0)
+    object.__setattr__(spec, "range_max_m", stated)  # what the driver wrote, which a LidarSpec would refuse
+    rng = np.random.default_rng(5)
+    frames = []
+    for i in range(20):
+        ranges = rng.uniform(0.5, 5.0 if i < 8 else 60.0, 720).astype(np.float32)
+        ranges[::40] = np.inf
+        frames.append(Frame(1_700_000_000_000_000_000 + i * 100_000_000, Scan(ranges, spec), Pose2D(0.02 * i, 0.0, 0.0)))
+    path = write_log(tmp_path / "ring", LogContent(frames), "ros2-mcap")
+    with pytest.warns(LogWarning, match=r"/scan states no range \(range_max .*\): every finite reading from 0.2 m up "
+                                        r"to 1000 m is a return"):
+        with open_log(path) as log:
+            got = list(log.frames())
+            assert log.lidar_spec.range_max_m == 1000.0
+    assert len(got) == len(frames)
+    for a, b in zip(got, frames, strict=True):
+        assert np.array_equal(a.scan.valid, np.isfinite(b.scan.ranges_m))
