@@ -6,7 +6,7 @@ walls as a lidar saw them.  This study gives each building of ``../shared/data/r
 Intel, MIT CSAIL; not the outdoor Freiburg campus) to both planners as a floor plan: the map of ``mcnkit slam LOG
 --particles 30 --resolution 0.05 --seed 0`` (made once into ``--maps``, reused when there), whose free cells are the
 plan (its unknown grey is not free, so the plan is what the real robot saw).  Every (building, seed, planner) runs as
-``bench_explore`` runs a house (same simulator, SLAM, stopping rule, ``mcn`` at K = 8 with ``sampler-explore``) with a
+``bench_explore`` runs a house (same simulator, SLAM, stopping rule, ``mcn`` with ``sampler-explore`` at its default K samples) with a
 larger path budget.
 
 Reported per building and seed: the path to 50 / 80 / 90 % coverage of the reachable free space and the coverage at
