@@ -262,6 +262,9 @@ class FastSlam:
         cfg = self.config
         if self._lidar is None:
             self._lidar = frame.scan.spec
+        valid = frame.scan.valid
+        if not valid.all():  # REP 117: below range_min (too close, a driver's error code) or beyond range_max: none
+            frame = replace(frame, scan=replace(frame.scan, ranges_m=np.where(valid, frame.scan.ranges_m, np.nan)))
         if cfg.matching.self_hit_m > 0:
             moved = self._last_motion  # over the previous step: this one's is found below, from the filtered scan
             ranges = self.self_hits.filter(frame.scan.ranges_m, math.hypot(moved[0], moved[1]), abs(float(moved[2])))

@@ -168,6 +168,24 @@ def test_scans_without_returns_and_a_mounted_laser_do_not_break_the_filter() -> 
     assert slam.best_map().log_odds.any()
 
 
+def test_a_reading_below_range_min_is_no_return_and_marks_nothing() -> None:
+    """REP 117: a reading below ``range_min`` (a Hokuyo's error codes, a few millimetres) is no return, not a wall
+    under the scanner."""
+    spec = LidarSpec(-np.pi / 2, np.pi / 180, 181, 0.1, 10.0)
+    rng = np.random.default_rng(2)
+    slam = FastSlam(SlamConfig(n_particles=5), np.random.default_rng(0))
+    truth = np.array([[1.5 + 0.1 * k, 1.5, 0.0] for k in range(40)])
+    for k, pose in enumerate(truth):
+        ranges = cast(pose, rng, spec)
+        ranges[::7] = rng.uniform(0.001, 0.02, len(ranges[::7]))  # error codes on one beam in seven
+        slam.step(Frame(k * 10**8, Scan(ranges, spec), Pose2D.from_array(pose)))
+    grid = slam.best_map()
+    occupied = np.argwhere(grid.log_odds > 0)
+    xy = grid.spec.cell_to_world(occupied) if len(occupied) else np.zeros((0, 2))
+    near_path = np.hypot(*(xy[:, None, :] - truth[None, :, :2]).transpose(2, 0, 1)).min(axis=1) < 0.3  # no wall within 1.5 m of it
+    assert len(occupied) and not near_path.any()
+
+
 def test_odometry_that_says_forward_while_the_robot_backs_up_is_caught() -> None:
     # FR079 does this around scan 840: the wheels report 0.1 m forward per scan while the scans show the robot
     # reversing.  Here the robot drives 3 m east along the room's south side, then backs up 1.5 m; the
