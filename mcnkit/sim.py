@@ -204,10 +204,10 @@ def houseexpo_raster(plan: FloorPlan, resolution_m: float = 0.05) -> PlanRaster:
 def cast_rays(free: BoolArray, grid: GridSpec, laser_poses: F64, spec: LidarSpec) -> NDArray[np.float32]:
     """Exact noise-free ranges (F, B) from laser poses (F, 3) on the raster; ``inf`` where nothing is in range.
 
-    Cells outside the grid count as occupied.  Every beam is sampled every ``resolution/4`` (in blocks; beams that hit stop); the first occupied
-    sample's cell is then intersected exactly with the ray (slab method).  A beam that steps diagonally between two
-    occupied cells touching at a corner (a wall one pixel thick drawn at a slant) ends at that corner: a drawn wall
-    is closed where its pixels touch.
+    Cells outside the grid count as occupied.  Every beam is sampled every ``resolution/4`` (in blocks; beams that
+    hit stop); the first occupied sample's cell is then intersected exactly with the ray (slab method).  A beam that
+    steps diagonally between two occupied cells touching at a corner (a wall one pixel thick drawn at a slant) ends
+    at that corner: a drawn wall is closed where its pixels touch.
     """
     res = grid.resolution_m
     angles = laser_poses[:, 2:3] + spec.angles_rad[None, :]  # (F, B)

@@ -61,7 +61,8 @@ def cast_visibility(walls: BoolArray, weight: NDArray[np.floating] | None, origi
     """For every origin (V, 2) ``[col, row]`` in cells and every wall layer (K, H, W): the summed ``weight`` (H, W;
     None: none) of the cells seen by ``n_rays`` rays over 360° reaching ``range_cells``, each cell counted once
     (V, K).  A ray stops at the first wall cell (seen itself), or where it passes between two wall cells touching at a
-    corner, at least ``start_cells`` from its origin; cells outside the grid end it.  ``mask`` (H, W), when given, gets every cell seen marked True, in place."""
+    corner, at least ``start_cells`` from its origin; cells outside the grid end it.  ``mask`` (H, W), when given,
+    gets every cell seen marked True, in place."""
     walls = np.ascontiguousarray(walls, dtype=np.bool_)
     if walls.ndim != 3:
         raise ValueError(f"walls must be (K, H, W), got {walls.shape}")
