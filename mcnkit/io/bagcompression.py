@@ -74,8 +74,9 @@ def file_compression(files: Iterable[Path]) -> dict[Path, str | None]:
 
 def decompressed_copies(files: Iterable[Path], kinds: Mapping[Path, str | None]) -> tuple[Path | None, list[Path]]:
     """The files with every compressed one decompressed into a new temporary folder (None when none was), named by
-    its place in the list and its own name without the compression suffix; the caller removes the folder.  A file that decompresses past the
-    ratio limit, or is damaged, raises :class:`LogError` naming it and leaves no folder behind."""
+    its place in the list and its own name without the compression suffix; the caller removes the folder.  A file
+    that decompresses past the ratio limit, or is damaged, raises :class:`LogError` naming it and leaves no folder
+    behind."""
     folder: Path | None = None
     out: list[Path] = []
     try:
