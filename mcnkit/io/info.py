@@ -7,6 +7,8 @@ import math
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
 
+from mcnkit.io.plausible import MAX_RANGE_M
+
 if TYPE_CHECKING:
     from mcnkit.io.base import LogReader
 
@@ -40,6 +42,7 @@ def describe(log: LogReader) -> dict[str, object]:
             "angle_increment_deg": round(math.degrees(spec.angle_increment_rad), 4),
             "range_min_m": round(spec.range_min_m, 3),
             "range_max_m": round(spec.range_max_m, 3),
+            "range_max_stated": spec.range_max_m < MAX_RANGE_M,  # False: the log states none (see BagLog)
             "base_to_laser": [spec.base_to_laser.x_m, spec.base_to_laser.y_m, spec.base_to_laser.yaw_rad],
             "sweep_s": round(float(spec.beam_times_s.max()), 6),
         }
@@ -74,8 +77,11 @@ def print_info(info: dict[str, Any]) -> None:
         s = info["scanner"]
         read = f" (read from {info['laser_lines']} laser lines)" if "laser_lines" in info else ""
         mount = s["base_to_laser"]
+        reach = (f"range {s['range_min_m']}–{s['range_max_m']} m" if s.get("range_max_stated", True) else
+                 f"range from {s['range_min_m']} m, no maximum stated (every finite reading up to "
+                 f"{s['range_max_m']:g} m is a return)")
         print(f"scanner   {info['scans']} scans{read} of {s['beams']} beams, field of view {s['fov_deg']}° "
               f"(from {s['angle_min_deg']}° in {s['angle_increment_deg']}° steps), "
-              f"range {s['range_min_m']}–{s['range_max_m']} m, mount at ({mount[0]:.3f}, {mount[1]:.3f}) m, "
+              f"{reach}, mount at ({mount[0]:.3f}, {mount[1]:.3f}) m, "
               f"turned {math.degrees(mount[2]):.1f}°"
               + (f", each sweep {s['sweep_s'] * 1e3:.1f} ms (deskewed by the SLAM)" if s["sweep_s"] else ""))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mcnkit.io import LogContent, LogWarning, open_log, write_log
+from mcnkit.io.info import describe, print_info
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan
 
 SPECIALS = np.array([np.inf, -np.inf, np.nan, 12.5, 40.0, 1e30, 0.05, -1.0], np.float32)
@@ -71,9 +72,11 @@ def test_the_skipped_scan_warning_names_each_reason_with_its_count(tmp_path: Pat
 
 
 @pytest.mark.parametrize("stated", [np.inf, np.nan, 0.0, float(np.finfo(np.float32).max)])
-def test_a_scanner_that_states_no_range_keeps_every_finite_reading(tmp_path: Path, stated: float) -> None:
+def test_a_scanner_that_states_no_range_keeps_every_finite_reading(tmp_path: Path, stated: float,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
     """pointcloud_to_laserscan (a 3-D lidar's ring as a LaserScan) states range_max inf by default; other drivers
-    leave it 0 or write FLT_MAX.  The first scans here reach 5 m, the later ones 60 m: all of them are returns."""
+    leave it 0 or write FLT_MAX.  The first scans here reach 5 m, the later ones 60 m: all of them are returns, and
+    ``mcnkit info`` says that no maximum was stated."""
     spec = LidarSpec(-np.pi, 2 * np.pi / 720, 720, 0.2, 100.0)
     object.__setattr__(spec, "range_max_m", stated)  # what the driver wrote, which a LidarSpec would refuse
     rng = np.random.default_rng(5)
@@ -88,6 +91,10 @@ def test_a_scanner_that_states_no_range_keeps_every_finite_reading(tmp_path: Pat
         with open_log(path) as log:
             got = list(log.frames())
             assert log.lidar_spec.range_max_m == 1000.0
+            info = describe(log)
     assert len(got) == len(frames)
+    assert info["scanner"]["range_max_stated"] is False  # type: ignore[index]
+    print_info(info)
+    assert "range from 0.2 m, no maximum stated (every finite reading up to 1000 m is a return)" in capsys.readouterr().out
     for a, b in zip(got, frames, strict=True):
         assert np.array_equal(a.scan.valid, np.isfinite(b.scan.ranges_m))
