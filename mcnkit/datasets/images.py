@@ -2,7 +2,8 @@
 ``map_server`` YAML beside it when there is one.
 
 The YAML (``<image stem>.yaml`` next to the image, or any YAML whose ``image:`` names it) gives ``resolution``,
-``origin`` ``[x, y, yaw]`` (the lower-left pixel's corner; a yaw is not supported), ``negate``,
+``origin`` ``[x, y, yaw]`` (the lower-left pixel's corner; a yaw is ignored with a warning, as map_server's own
+users mostly do), ``negate``,
 ``occupied_thresh`` and ``free_thresh`` with map_server's meaning: a pixel's occupancy is ``p = (255 − v) / 255``
 (``v / 255`` when negated; ``v / 100`` in ``mode: raw``, values above 100 unknown); free below ``free_thresh``,
 occupied above ``occupied_thresh``, unknown between.
@@ -24,6 +25,7 @@ Example:
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,7 +74,8 @@ def read_map_yaml(path: str | os.PathLike[str]) -> MapYaml:
     if out.mode not in ("trinary", "scale", "raw"):
         raise ValueError(f"{path}: unknown mode {out.mode!r} (trinary, scale or raw)")
     if len(origin) > 2 and abs(origin[2]) > 1e-9:
-        raise ValueError(f"{path}: a rotated map origin (yaw {origin[2]}) is not supported")
+        warnings.warn(f"{path}: the origin's yaw ({origin[2]:g} rad) is ignored: the map is placed unrotated, in its "
+                      "image's axes (as most ROS tools read it)", stacklevel=2)
     if not out.resolution_m > 0:
         raise ValueError(f"{path}: resolution must be positive, got {out.resolution_m}")
     return out

@@ -76,3 +76,14 @@ def test_a_raw_mode_map_reads_its_values_as_occupancy_in_percent(tmp_path: Path)
     (tmp_path / "raw.yaml").write_text("image: raw.pgm\nresolution: 0.1\nmode: bitmap\n")
     with pytest.raises(ValueError, match="unknown mode 'bitmap'"):
         read_occupancy_image(tmp_path / "raw.pgm")
+
+
+def test_a_rotated_origin_is_read_unrotated_with_a_warning(tmp_path: Path) -> None:
+    """map_server's ``origin: [x, y, yaw]``: most ROS tools ignore the yaw, and so does a floor plan here: the
+    image's axes are the plan's, placed at ``x, y``."""
+    Image.fromarray(np.full((10, 12), 254, np.uint8)).save(tmp_path / "turned.pgm")
+    (tmp_path / "turned.yaml").write_text("image: turned.pgm\nresolution: 0.1\norigin: [1.5, -2.0, 0.7854]\n")
+    with pytest.warns(UserWarning, match=r"turned.yaml: the origin's yaw \(0.7854 rad\) is ignored"):
+        free, grid = read_occupancy_image(tmp_path / "turned.pgm")
+    assert free.all() and (grid.width, grid.height) == (12, 10)
+    assert (grid.origin_x_m, grid.origin_y_m) == (1.5, -2.0)
