@@ -3,8 +3,8 @@ frontier (Yamauchi 1997), on the same houses with the same seeds.
 
 Every (house, planner) runs :class:`mcnkit.explore.loop.Explorer` as ``mcnkit explore`` does (same simulator,
 lidar, odometry noise, SLAM and stopping rule; ``--stop-coverage`` ends a run once that share of the reachable free
-space is seen, to save time), with the house's index as its seed, so both planners start from the same pose with
-the same noise streams.  Per run: the path length to 50/80/90/95 % coverage, the coverage at fixed path budgets,
+space is seen, to save time), with the house's index (plus ``--seed-offset``) as its seed, so both planners start
+from the same pose with the same noise streams.  Per run: the path length to 50/80/90/95 % coverage, the coverage at fixed path budgets,
 F (free positive) of the final SLAM map and of its mean completion on the house's window (both planners' maps
 completed by the same model), the CPU of every planning step.
 
@@ -18,7 +18,9 @@ Reported: per domain, the mean path to 90 % coverage of both planners over the h
 per-house difference with its 95 % t-interval, the relative saving ``1 − mean(mcn) / mean(frontier)`` with a paired
 bootstrap 95 % interval, the houses one finished and the other did not, the coverage at each budget, map F, CPU per
 planning step (mean, 95th percentile, max) and the wall time.  Writes ``benchmarks/results/explore.json`` (or
-``explore_study.json``) and a plot of the mean coverage against path length (``explore_coverage.png``).
+``explore_study.json``; ``--json`` elsewhere) and, beside it, a plot of the mean coverage against path length
+(``explore_coverage.png``: the JSON's name with ``_coverage.png``).  ``--seed-offset`` runs the same houses on other
+seeds.
 
     .venv/bin/python -m benchmarks.bench_explore [--houses 50] [--procedural 20] [--model NAME|PATH] [--jobs N]
     .venv/bin/python -m benchmarks.bench_explore --study [--study-houses 12] [--variants NAME ...]
@@ -303,6 +305,9 @@ def main() -> None:
                          "baseline always runs")
     ap.add_argument("--data", default=None, help="shared data folder (default $MCNKIT_SHARED_DATA or ../shared/data)")
     ap.add_argument("--json", type=Path, default=None, help="output JSON (default results/explore[_study].json)")
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="added to every run's seed, to measure the same houses on other start poses and noise "
+                         "(default 0: a house's seed is its index)")
     ap.add_argument("--gain", action="append", default=[], metavar="FIELD=VALUE",
                     help="a GainConfig field of the mcn runs, e.g. --gain finish_share=0.9 (repeatable; default: none, "
                          "the defaults)")
@@ -333,8 +338,9 @@ def main() -> None:
     if args.study:
         ids = study_house_ids(source, shared / "houseexpo", args.study_houses)
         for k, i in enumerate(ids):
-            tasks.append(Task(f"houseexpo:{i}", "houseexpo-train", "frontier", k, args.model, explore=explore))
-            tasks += [Task(f"houseexpo:{i}", "houseexpo-train", planner, k, model or args.model, name, gain,
+            seed = k + args.seed_offset
+            tasks.append(Task(f"houseexpo:{i}", "houseexpo-train", "frontier", seed, args.model, explore=explore))
+            tasks += [Task(f"houseexpo:{i}", "houseexpo-train", planner, seed, model or args.model, name, gain,
                            explore | loop, WINDOW_MARGINS_M if name == "unknown, ratio" else ())
                       for name, (planner, model, gain, loop) in variants.items()]
     else:
@@ -342,7 +348,8 @@ def main() -> None:
         specs = [(f"houseexpo:{i}", "houseexpo-test") for i in ids]
         specs += [(f"procedural:{s}", "procedural") for s in range(1, args.procedural + 1)]
         for k, (spec, domain) in enumerate(specs):
-            tasks += [Task(spec, domain, p, k, args.model, gain=mcn_gain if p == "mcn" else {}, explore=explore)
+            tasks += [Task(spec, domain, p, k + args.seed_offset, args.model, gain=mcn_gain if p == "mcn" else {},
+                           explore=explore)
                       for p in ("frontier", "mcn")]
     rows: list[dict[str, Any]] = []
     if args.jobs > 1:
@@ -357,7 +364,7 @@ def main() -> None:
             rows.append(run_task(task))
             _print_row(rows[-1])
     results: dict[str, Any] = {"benchmark": "bench_explore", "model": args.model, "explore": explore, "gain": mcn_gain,
-                               "study": args.study, "wall_s": None, "domains": {}}
+                               "study": args.study, "seed_offset": args.seed_offset, "wall_s": None, "domains": {}}
     for domain in sorted({r["domain"] for r in rows}):
         sel = [r for r in rows if r["domain"] == domain]
         comparisons = {v: paired(sel, v) for v in (["mcn"] if not args.study else list(variants))}
@@ -370,7 +377,7 @@ def main() -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(results, indent=1) + "\n")
     if not args.study:
-        plot(rows, RESULTS / "explore_coverage.png", args.budget_m)
+        plot(rows, out.with_name(f"{out.stem}_coverage.png"), args.budget_m)
     print(f"wall time {results['wall_s'] / 60:.1f} min; wrote {out}")
 
 
