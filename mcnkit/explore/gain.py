@@ -21,6 +21,11 @@ return trip when seen now, and a trip back from wherever the robot is when left.
 the area of such pockets once more (``GainConfig.finish_share``), so a predicted closet next to the robot is not
 left behind for a larger but farther view, the return trips that lengthen greedy exploration.
 
+A building wider than the completions' window (``GainConfig.window_max_m``) is completed only around the robot;
+what a scan would see of the map's unknown space beyond that window is counted too (:func:`beyond_window_gains`),
+else every viewpoint past the window would be worth nothing and the robot, once the space around it is seen, would
+wander among the last scraps of it instead of driving on to the rest of the building.
+
 The gain is traded against the path cost (:func:`trade_off`): ``gain / (cost + floor)`` (MapEx divides by the
 distance) or ``gain · exp(−λ · cost)``.
 
@@ -41,8 +46,8 @@ from mcnkit.explore.config import GainConfig
 from mcnkit.explore.rays import cast_visibility
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
-__all__ = ["cell_weights", "expected_gains", "finished_pockets", "sample_walls", "trade_off", "visible_gains",
-           "visible_mask"]
+__all__ = ["beyond_window_gains", "cell_weights", "expected_gains", "finished_pockets", "sample_walls", "trade_off",
+           "visible_gains", "visible_mask"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -140,6 +145,31 @@ def expected_gains(samples: NDArray[np.floating], partial: NDArray[np.floating],
                               config.beams, range_cells)[:, 0]
         gain = config.sample_share * gain + (1.0 - config.sample_share) * plain
     return np.asarray(gain, np.float64)
+
+
+def beyond_window_gains(outer: NDArray[np.floating], inside: BoolArray, window_gains: F64,
+                        origins_xy_cells: NDArray[np.floating], n_beams: int, range_cells: float,
+                        cell_area_m2: float) -> F64:
+    """(V,) what a scan from each origin ``[col, row]`` is expected to bring beyond the completions' window [m²].
+
+    ``outer`` (H, W) is the SLAM map (ternary) on a grid holding the window, ``inside`` (H, W) marks the window's
+    cells on it, ``window_gains`` (V,) are the samples' gains inside it.  Beyond the window no sample says where
+    walls stand, so the unknown area a scan would see there through the map's known walls (the ``observed`` gain)
+    is scaled by the share of it the samples expect inside the window (the same gain on the window's unknown cells,
+    over all viewpoints; at most 1): the two parts of a viewpoint's gain are then in the same units.  Zeros when the
+    map has no unknown cell beyond the window (a house the window holds whole)."""
+    outer = np.asarray(outer)
+    unknown = outer == UNKNOWN
+    beyond = unknown & ~inside
+    origins = np.asarray(origins_xy_cells, np.float64).reshape(-1, 2)
+    if not beyond.any() or len(origins) == 0:
+        return np.zeros(len(origins))
+    walls = (outer == OCCUPIED)[None]
+    seen_beyond = visible_gains(walls, beyond * cell_area_m2, origins, n_beams, range_cells)[:, 0]
+    seen_inside = visible_gains(walls, (unknown & inside) * cell_area_m2, origins, n_beams, range_cells)[:, 0]
+    total_inside = float(seen_inside.sum())
+    share = min(1.0, max(0.0, float(np.sum(window_gains)) / total_inside)) if total_inside > 0 else 1.0
+    return np.asarray(share * seen_beyond, np.float64)
 
 
 def trade_off(gain: F64, cost_m: F64, kind: str, cost_lambda_per_m: float, cost_floor_m: float) -> F64:

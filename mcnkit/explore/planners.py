@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from mcnkit.explore.config import ExploreConfig, GainConfig
 from mcnkit.explore.frontiers import Frontiers, Viewpoints, find_frontiers, planning_map, viewpoints
-from mcnkit.explore.gain import expected_gains, trade_off
+from mcnkit.explore.gain import beyond_window_gains, expected_gains, trade_off
 from mcnkit.explore.paths import CostField, cost_field
 from mcnkit.explore.tour import open_tour, tour_length
 from mcnkit.slam.lineage import LineageMap
@@ -145,6 +145,7 @@ class McnPlanner:
                             (points.xy_m[:, 1] - w.origin_y_m) / w.resolution_m], 1)
         gain = expected_gains(pred.samples, pred.partial, origins, cfg, self.range_m / w.resolution_m,
                               w.resolution_m**2)
+        gain = gain + self._beyond_window(view, w, points.xy_m, gain)
         if cfg.tradeoff == "tour":
             score = tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places)
         elif cfg.tradeoff == "regret":
@@ -154,6 +155,27 @@ class McnPlanner:
         if cfg.local_m > 0:
             score = local_first(score, gain, points.cost_m, cfg.local_m, cfg.tour_min_gain_m2)
         return gain, score, pred
+
+
+    def _beyond_window(self, view: PlanningView, window: GridSpec, xy_m: F64, window_gains: F64) -> F64:
+        """(V,) the gains beyond the completions' window (:func:`mcnkit.explore.gain.beyond_window_gains`), on a grid
+        of the window's cells grown to hold the whole seen map; zeros when the window holds it."""
+        res = window.resolution_m
+        x0, y0, x1, y1 = view.lineage.seen_bounds_m()
+        wx1, wy1 = window.origin_x_m + window.width * res, window.origin_y_m + window.height * res
+        left = max(0, math.ceil((window.origin_x_m - x0) / res))
+        below = max(0, math.ceil((window.origin_y_m - y0) / res))
+        right = max(0, math.ceil((x1 - wx1) / res))
+        above = max(0, math.ceil((y1 - wy1) / res))
+        if left + below + right + above == 0:
+            return np.zeros(len(xy_m))
+        outer = GridSpec(res, window.origin_x_m - left * res, window.origin_y_m - below * res,
+                         window.width + left + right, window.height + below + above)
+        inside = np.zeros((outer.height, outer.width), bool)
+        inside[below:below + window.height, left:left + window.width] = True
+        origins = np.stack([(xy_m[:, 0] - outer.origin_x_m) / res, (xy_m[:, 1] - outer.origin_y_m) / res], 1)
+        return beyond_window_gains(view.lineage.pooled(outer), inside, window_gains, origins, self.config.beams,
+                                   self.range_m / res, res**2)
 
 
 def local_first(score: F64, gain: F64, cost_m: F64, local_m: float, min_gain_m2: float) -> F64:

@@ -5,7 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mcnkit.explore.gain import cell_weights, finished_pockets, sample_walls, trade_off, visible_gains, visible_mask
+from mcnkit.explore.gain import (
+    beyond_window_gains,
+    cell_weights,
+    finished_pockets,
+    sample_walls,
+    trade_off,
+    visible_gains,
+    visible_mask,
+)
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN
 
 
@@ -120,3 +128,25 @@ def test_open_counts_the_house_the_samples_draw_but_not_their_inner_walls() -> N
     np.testing.assert_allclose(weight[:, [0, 5, 8]], np.tile([1.0, 0.5, 0.0], (10, 1)))  # share of samples free
     seen = visible_gains(walls, weight, np.array([[2.5, 5.5]]), 720, 30.0)[0, 0]
     assert seen == pytest.approx(10 * 7 + 10 * 0.5)  # columns 0-7 behind the one-sample wall; nothing outside
+
+
+def test_a_viewpoint_beyond_the_window_is_worth_the_unknown_it_would_see_there() -> None:
+    """A building wider than the completions' window: the window holds its left half.  A viewpoint on the right,
+    beside unknown space, is worth what it would see of it, scaled by the share of the unknown area that the
+    samples expect to be seen inside the window; one whose scan stays inside the window gets nothing more."""
+    outer = np.full((40, 40), FREE, np.float32)
+    outer[10:30, 5:16] = UNKNOWN  # unknown space inside the window (columns 0-19) ...
+    outer[10:30, 25:36] = UNKNOWN  # ... and beyond it
+    outer[:, 38] = OCCUPIED
+    inside = np.zeros((40, 40), bool)
+    inside[:, :20] = True
+    origins = np.array([[10.5, 5.5], [30.5, 5.5]])  # in the window; beyond it
+    seen_inside = visible_gains((outer == OCCUPIED)[None], (outer == UNKNOWN) & inside, origins, 720, 12.0)[0, 0]
+    half = beyond_window_gains(outer, inside, np.array([seen_inside / 2, 0.0]), origins, 720, 12.0, 1.0)
+    assert half[0] == 0.0  # its scan does not reach past column 22
+    seen_beyond = visible_gains((outer == OCCUPIED)[None], (outer == UNKNOWN) & ~inside, origins, 720, 12.0)[1, 0]
+    assert seen_beyond > 0 and half[1] == pytest.approx(seen_beyond / 2)
+    whole = beyond_window_gains(outer, inside, np.array([3 * seen_inside, 0.0]), origins, 720, 12.0, 1.0)
+    assert whole[1] == pytest.approx(seen_beyond)  # never more than the map itself says is there
+    held = beyond_window_gains(outer, np.ones((40, 40), bool), np.array([5.0, 5.0]), origins, 720, 12.0, 1.0)
+    assert not held.any()  # a house the window holds whole: the samples alone
