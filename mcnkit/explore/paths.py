@@ -110,13 +110,19 @@ def _snap(traversable: BoolArray, cell: I64, resolution_m: float) -> tuple[int, 
 
 
 def cost_field(image: NDArray[np.floating], grid: GridSpec, start_xy_m: F64, robot_radius_m: float,
-               margin_m: float) -> CostField:
+               margin_m: float, footprint: bool = False) -> CostField:
     """One Dijkstra from the robot at ``start_xy_m`` over the ternary planning map ``image`` (H, W) on ``grid``.
 
     The step cost is the simulator's: 1 per cell, up to 5 when the clearance is below the robot radius + 0.4 m
-    (paths keep to the middle of corridors and doors)."""
+    (paths keep to the middle of corridors and doors).  ``footprint``: the cells within ``robot_radius_m`` of the
+    robot that the map does not call occupied are traversable too (the robot stands there, so it fits, whatever a
+    wall the map draws a cell too thick says): a robot whose map pinches the corridor around it is not closed in."""
     res = grid.resolution_m
     traversable, clearance = traversable_cells(image, res, robot_radius_m, margin_m)
+    if footprint:
+        r, c = grid.world_to_cell(np.asarray(start_xy_m, np.float64))
+        rows, cols = np.ogrid[: grid.shape[0], : grid.shape[1]]
+        traversable = traversable | ((np.hypot(rows - r, cols - c) * res <= robot_radius_m) & (image != OCCUPIED))
     start = _snap(traversable, grid.world_to_cell(np.asarray(start_xy_m, np.float64)), res)
     if start is None:
         return CostField(grid, traversable, np.full(grid.shape, np.inf), None, None)

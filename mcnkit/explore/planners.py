@@ -156,7 +156,6 @@ class McnPlanner:
             score = local_first(score, gain, points.cost_m, cfg.local_m, cfg.tour_min_gain_m2)
         return gain, score, pred
 
-
     def _beyond_window(self, view: PlanningView, window: GridSpec, xy_m: F64, window_gains: F64) -> F64:
         """(V,) the gains beyond the completions' window (:func:`mcnkit.explore.gain.beyond_window_gains`), on a grid
         of the window's cells grown to hold the whole seen map; zeros when the window holds it."""
@@ -260,14 +259,16 @@ def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_ra
            blacklist_xy_m: F64, goal_xy_m: F64 | None = None, keep_goal: bool = False) -> Decision:
     """One planning step (see the module docstring); paths keep ``robot_radius_m + config.plan_margin_m`` from the
     map's walls, or only the radius when that leaves no frontier within reach (a door the map draws narrower than it
-    is, a robot that drifted close to a wall).  With the current ``goal_xy_m`` and a planner that commits, the
+    is, a robot that drifted close to a wall), and then with the cells under the robot free (a map that pinches the
+    corridor the robot stands in).  With the current ``goal_xy_m`` and a planner that commits, the
     viewpoint nearest to it is kept when within ``config.commit_m`` (the planner still scores them all); with a
     planner's ``keep_bonus``, it is kept unless another scores that share more; ``keep_goal`` keeps it as a
     committing planner's is kept, whatever the planner (a goal the robot came back to, ``keep_returned``)."""
     t0 = time.process_time()
     frontiers = find_frontiers(view.image, view.grid, config)
-    for margin in (config.plan_margin_m, 0.0):  # no frontier within reach: squeeze through with no margin
-        field_ = cost_field(view.image, view.grid, view.pose[:2], robot_radius_m, margin)
+    # no frontier within reach: squeeze through with no margin, then with the robot's own footprint free
+    for margin, footprint in ((config.plan_margin_m, False), (0.0, False), (0.0, True)):
+        field_ = cost_field(view.image, view.grid, view.pose[:2], robot_radius_m, margin, footprint)
         points = viewpoints(frontiers, field_, config, blacklist_xy_m)
         if len(points) or frontiers.n_segments == 0:
             break

@@ -79,3 +79,17 @@ def test_costs_between_places_follow_the_same_paths() -> None:
     np.testing.assert_allclose(between[0], field.cost_m[cells[:, 0], cells[:, 1]], rtol=1e-6)  # from the robot's cell
     assert between[1, 2] > 3.0  # round the wall's end: farther than the 3 m straight line
     assert field.costs_between(cells[:1]).shape == (1, 1)
+
+
+def test_a_robot_its_map_pinches_in_is_not_closed_in_with_its_footprint_free() -> None:
+    """The map draws the corridor a little too narrow on both sides of the robot (a SLAM map's wall specks): the
+    cells it fits in end short of it, so it can reach nothing past them; with the cells under its own footprint free
+    (it stands there, so it fits) the corridor beyond is reachable again.  Walls stay walls."""
+    image = _corridor()
+    image[[7, 13, 7, 13], [28, 28, 32, 32]] = OCCUPIED  # specks 0.6 m apart, 0.2 m on either side of the robot
+    robot = np.array([3.05, 1.05])  # cell (10, 30)
+    pinched = cost_field(image, GRID, robot, robot_radius_m=0.35, margin_m=0.0)
+    assert np.isfinite(pinched.cost_m[10, 30]) and np.isinf(pinched.cost_m[10, 50]) and np.isinf(pinched.cost_m[10, 10])
+    freed = cost_field(image, GRID, robot, robot_radius_m=0.35, margin_m=0.0, footprint=True)
+    assert np.isfinite(freed.cost_m[10, 50]) and np.isfinite(freed.cost_m[10, 10])
+    assert not freed.traversable[image == OCCUPIED].any()
