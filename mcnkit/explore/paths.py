@@ -119,11 +119,12 @@ def cost_field(image: NDArray[np.floating], grid: GridSpec, start_xy_m: F64, rob
     wall the map draws a cell too thick says): a robot whose map pinches the corridor around it is not closed in."""
     res = grid.resolution_m
     traversable, clearance = traversable_cells(image, res, robot_radius_m, margin_m)
+    robot = grid.world_to_cell(np.asarray(start_xy_m, np.float64))
     if footprint:
-        r, c = grid.world_to_cell(np.asarray(start_xy_m, np.float64))
         rows, cols = np.ogrid[: grid.shape[0], : grid.shape[1]]
-        traversable = traversable | ((np.hypot(rows - r, cols - c) * res <= robot_radius_m) & (image != OCCUPIED))
-    start = _snap(traversable, grid.world_to_cell(np.asarray(start_xy_m, np.float64)), res)
+        under = np.hypot(rows - robot[0], cols - robot[1]) * res <= robot_radius_m
+        traversable = traversable | (under & (image != OCCUPIED))
+    start = _snap(traversable, robot, res)
     if start is None:
         return CostField(grid, traversable, np.full(grid.shape, np.inf), None, None)
     pref = robot_radius_m + 0.4
