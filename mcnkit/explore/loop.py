@@ -129,6 +129,9 @@ class PlanStep:
     cpu_s: float
     viewpoints: int
     """Frontier viewpoints it chose from."""
+    frontiers: int
+    """Frontier segments on the map, reachable or not (a step with none to choose from and some left: the robot
+    cannot reach what is left to see)."""
     goal_xy_m: F64 | None
     gain_m2: float | None
     """The chosen viewpoint's expected gain (0 for the frontier planner); None without a goal."""
@@ -138,9 +141,9 @@ class PlanStep:
     def of(cls, frame: int, d: Decision) -> PlanStep:
         """The brief of decision ``d``."""
         if d.choice is None:
-            return cls(frame, d.cpu_s, len(d.points), None, None, None)
-        return cls(frame, d.cpu_s, len(d.points), d.points.xy_m[d.choice].copy(), float(d.gain[d.choice]),
-                   float(d.points.cost_m[d.choice]))
+            return cls(frame, d.cpu_s, len(d.points), d.frontiers.n_segments, None, None, None)
+        return cls(frame, d.cpu_s, len(d.points), d.frontiers.n_segments, d.points.xy_m[d.choice].copy(),
+                   float(d.gain[d.choice]), float(d.points.cost_m[d.choice]))
 
 
 @dataclass

@@ -121,6 +121,9 @@ class ExploreSummary:
     """F (free positive) of the final SLAM map on the house's window."""
     f_completed: float | None = None
     """F of its mean completion."""
+    frontiers_left: int | None = None
+    """Frontier segments on the map at the last planning step (None: no planning step): after ``explored``, the
+    frontiers no path reaches (a door the map draws too narrow, space seen only through a window)."""
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready."""
@@ -140,7 +143,8 @@ def summarize(explorer: Explorer, f_slam: float | None = None, f_completed: floa
         explorer.cpu_s, float(plan_cpu.mean()), float(plan_cpu.max()),
         {f"{c:g}": path_to_coverage(curve, c) for c in COVERAGE_LEVELS},
         {f"{b:g}": coverage_at(curve, b) for b in PATH_BUDGETS_M},
-        float(explorer.reachable.sum() * res * res), f_slam, f_completed)
+        float(explorer.reachable.sum() * res * res), f_slam, f_completed,
+        explorer.plans[-1].frontiers if explorer.plans else None)
 
 
 def final_map_f(explorer: Explorer, net: CompletionNet | None = None, samples: int = 8,

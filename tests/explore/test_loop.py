@@ -10,6 +10,7 @@ import torch
 from mcnkit.completion.nets import UNet, UNetConfig
 from mcnkit.explore.config import ExploreConfig, GainConfig
 from mcnkit.explore.loop import Explorer
+from mcnkit.explore.metrics import summarize
 from mcnkit.explore.planners import FrontierPlanner, McnPlanner
 from mcnkit.sim import LidarConfig, PlanRaster, SimConfig
 
@@ -90,6 +91,7 @@ def test_a_wall_felt_but_not_seen_is_planned_around_not_driven_into(rooms: PlanR
     start_x = ex.records[0].truth[0]
     assert start_x > 4.1 and all(r.truth[0] > 4.1 for r in ex.records)  # it stayed in its room
     assert ex.stop_reason == "explored"  # the far room's frontiers are out of reach once the bar is on the map
+    assert summarize(ex).frontiers_left >= 1  # and the summary counts them: explored, not everything seen
     assert 1 <= ex.n_collisions <= 5 and len(ex.contacts) == ex.n_collisions
     felt = np.array([xy for _, xy in ex.contacts])
     assert np.all(np.abs(felt[:, 0] - 4.05) < 0.35) and np.all((felt[:, 1] > 0.7) & (felt[:, 1] < 2.3))  # at the door

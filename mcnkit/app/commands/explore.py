@@ -129,6 +129,8 @@ def cmd_explore(args: argparse.Namespace) -> int:
             _write_outputs(args.out, explorer, result)
     done = summary.path_to_coverage_m["0.9"]
     why = _STOPS.get(summary.stop_reason, summary.stop_reason) if stopped_by is None else f"stopped by {stopped_by}"
+    if stopped_by is None and summary.stop_reason == "explored" and summary.frontiers_left:
+        why += f" ({summary.frontiers_left} frontier segment{'s' * (summary.frontiers_left > 1)} left that no path reaches)"
     print(f"{why}: coverage "
           f"{summary.coverage:.3f} after {summary.path_length_m:.1f} m ({summary.frames} frames, "
           f"{summary.planning_steps} planning steps"
