@@ -15,13 +15,24 @@ their stamps seconds apart at random) gets constant step.  The prior's spread is
 scale of the chosen prediction's residuals, per component, so the search window fits the log's scan rate (a few
 centimetres at 40 Hz, a metre in a log that keeps one scan per metre) without being told it.
 
+Neither prediction foresees what a log kept by distance (a scan every metre or every half radian) does next: it
+alternates drives and turns in place, either way, so the last step predicts the next one badly (the measured
+spread in heading reaches tens of degrees) and a look-alike pose a quarter turn off costs little more than the
+true one.  So the prior is a density, :meth:`MotionGuess.log_density`: half the Gaussian of the chosen
+prediction and half a kernel density of the recent steps themselves (the kinds of step this robot makes: drives,
+turns either way), and the search (:func:`mcnkit.slam.widesearch.unknown_motion_match`) mixes in a share ``ε`` of
+steps that neither explains (the robot may do anything at any scan: a uniform over the region searched).  That
+share is measured on the log, from how well each step was predicted before it was made (:func:`outlier_share`),
+so a log whose steps the density predicts gets a prior that decides, and an erratic one a prior that lets the
+scans decide.
+
 The particles then move by the tracked motion, spread by what the match left undetermined
 (:func:`motion_covariance`): the improved proposal's ``(H + P⁻¹)⁻¹`` with ``H`` the scan match's information and
 ``P`` the prior's covariance, so along a corridor's axis, which the scan does not pin, the particles keep the
 prior's spread until a feature pins them, and across it they sit within centimetres.
 
 Example:
-    >>> prior = MotionPrior(window=20, default_sigma=np.array([1.0, 1.0, 1.0]))
+    >>> prior = MotionPrior(window=20, default_sigma=np.array([1.0, 1.0, 1.0]), min_samples=10)
     >>> for _ in range(12):
     ...     prior.add(np.array([0.1, 0.0, 0.01]), 0.1)
     >>> guess = prior.predict(0.2)              # twice the time: constant velocity predicts twice the step
@@ -31,15 +42,16 @@ Example:
 
 from __future__ import annotations
 
+import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mcnkit.geometry import compose, wrap_angle
 
-__all__ = ["MotionGuess", "MotionPrior", "motion_covariance", "sample_increments"]
+__all__ = ["MotionGuess", "MotionPrior", "motion_covariance", "outlier_share", "sample_increments"]
 
 F64 = NDArray[np.float64]
 
@@ -58,6 +70,43 @@ class MotionGuess:
     """``[dx_m, dy_m, dyaw_rad]``."""
     sigma: F64
     """Standard deviation of each component of ``mean`` (3,)."""
+    recent: F64 = field(default_factory=lambda: np.zeros((0, 3)))
+    """(N, 3) the recent tracked steps, the kernel density's centres (none before ``min_samples`` steps: the
+    Gaussian alone)."""
+    bandwidth: F64 = field(default_factory=lambda: np.ones(3))
+    """(3,) the kernel density's bandwidth (Silverman's rule per component, at least the prior's ``min_sigma``)."""
+    log_q_recent: F64 = field(default_factory=lambda: np.zeros(0))
+    """(N,) the log density each recent step had under the guess made before it: how well this log is predicted
+    (:func:`outlier_share`)."""
+
+    def log_density(self, motions: F64, widen: F64 | None = None) -> F64:
+        """Log density (P,) of motions (P, 3) under the guess: the Gaussian of ``mean`` and ``sigma`` alone, or,
+        once recent steps are known, half that Gaussian and half their kernel density; every spread widened in
+        quadrature by ``widen`` (3,; e.g. a search lattice's cell and angular step)."""
+        motions = np.atleast_2d(np.asarray(motions, np.float64))
+        w = np.zeros(3) if widen is None else np.asarray(widen, np.float64)
+        gauss = _log_normal(motions[:, None, :], self.mean[None, None, :], np.sqrt(self.sigma**2 + w**2))[:, 0]
+        if len(self.recent) == 0:
+            return gauss
+        kde = _log_normal(motions[:, None, :], self.recent[None, :, :], np.sqrt(self.bandwidth**2 + w**2))
+        kde = np.logaddexp.reduce(kde, axis=1) - math.log(len(self.recent))
+        return np.asarray(np.logaddexp(gauss, kde) - math.log(2.0), np.float64)
+
+    def modes(self, most: int = 3) -> F64:
+        """(M, 3) the prediction and the densest distinct recent steps (each at least three bandwidths from those
+        before it), at most ``most`` of the latter: where the density has its peaks."""
+        if len(self.recent) == 0:
+            return self.mean[None, :].copy()
+        density = self.log_density(self.recent)
+        out = [self.mean]
+        for k in np.argsort(-density):
+            d = self.recent[k] - np.asarray(out)
+            d[:, 2] = wrap_angle(d[:, 2])
+            if (((d / self.bandwidth) ** 2).sum(axis=1) > 9.0).all():
+                out.append(self.recent[k])
+                if len(out) > most:
+                    break
+        return np.asarray(out)
 
 
 class MotionPrior:
@@ -68,7 +117,8 @@ class MotionPrior:
         default_sigma: the spread (3,) before ``min_samples`` steps were seen.
         min_sigma: the spread is never below this (3,): a robot that drove perfectly steadily so far may still
             brake.
-        min_samples: residuals needed before the measured spread and the choice of prediction are used.
+        min_samples: residuals needed before the measured spread and the choice of prediction are used, and steps
+            before their density joins the Gaussian.
     """
 
     def __init__(self, window: int, default_sigma: F64, min_sigma: F64 | None = None, min_samples: int = 30) -> None:
@@ -77,6 +127,8 @@ class MotionPrior:
         self.min_sigma = np.zeros(3) if min_sigma is None else np.asarray(min_sigma, np.float64)
         self.min_samples = min_samples
         self._last: F64 | None = None
+        self._recent: deque[F64] = deque(maxlen=window)
+        self._log_q: deque[float] = deque(maxlen=window)
         self._last_dt: float | None = None
         self._fastest = np.zeros(2)  # the largest translation (m) and turn (rad) over one scan so far
         self._steps = 0
@@ -107,17 +159,25 @@ class MotionPrior:
         else:
             r = np.abs(np.asarray(res))
             sigma = np.percentile(r, 90, axis=0) / 1.645  # a Gaussian's 90th percentile: heavy tails widen it
-        return MotionGuess(preds[mode].copy(), np.maximum(sigma, self.min_sigma))
+        sigma = np.maximum(sigma, self.min_sigma)
+        if len(res) < self.min_samples or len(self._recent) < self.min_samples:
+            return MotionGuess(preds[mode].copy(), sigma)
+        recent = np.asarray(self._recent)
+        bandwidth = np.maximum(1.06 * recent.std(axis=0) * len(recent) ** -0.2, self.min_sigma)
+        return MotionGuess(preds[mode].copy(), sigma, recent, bandwidth, np.asarray(self._log_q, np.float64))
 
     def add(self, motion: F64, dt_s: float | None) -> None:
         """The motion (3,) the tracking found over the last scan, ``dt_s`` after the scan before (None: no time)."""
         motion = np.asarray(motion, np.float64)
+        if self._steps >= self.min_samples:  # how well the guess before it predicted this step
+            self._log_q.append(float(self.predict(dt_s).log_density(motion[None, :])[0]))
         if self._last is not None:
             for mode, pred in self._predictions(dt_s).items():
                 err = motion - pred
                 err[2] = float(wrap_angle(err[2]))
                 self._res[mode].append(err)
         self._last = motion.copy()
+        self._recent.append(self._last)
         self._last_dt = dt_s
         self._fastest = np.maximum(self._fastest, [np.hypot(motion[0], motion[1]), abs(float(motion[2]))])
         self._steps += 1
@@ -130,6 +190,30 @@ class MotionPrior:
             return most_m, most_rad
         xy, rad = 2.0 * self._fastest
         return float(min(max(xy, 3.0 * self.min_sigma[:2].max()), most_m)), float(min(max(rad, 3.0 * self.min_sigma[2]), most_rad))
+
+
+def outlier_share(log_q: F64, log_u: float, iterations: int = 30) -> float:
+    """The share ``ε`` of steps that no prediction explains: the maximum-likelihood weight of a uniform density
+    (``log_u``: over the region searched) in the mixture ``(1 − ε) q + ε u`` of the steps' predicted densities
+    ``log_q`` (N,) (expectation-maximisation), within [0.01, 0.5]; 0.5 when no step is known yet."""
+    log_q = np.asarray(log_q, np.float64)
+    if len(log_q) == 0:
+        return 0.5
+    eps = 0.1
+    for _ in range(iterations):
+        a = math.log(eps) + log_u
+        b = math.log(1.0 - eps) + log_q
+        eps = float(np.clip(np.mean(np.exp(a - np.logaddexp(a, b))), 0.01, 0.5))
+    return eps
+
+
+def _log_normal(x: F64, mean: F64, sigma: F64) -> F64:
+    """Log density of independent normals, the heading difference wrapped; broadcast over leading axes (a spread of
+    0, a component that never varied, counts as a micrometre or microradian)."""
+    d = x - mean
+    d[..., 2] = wrap_angle(d[..., 2])
+    sigma = np.maximum(np.broadcast_to(sigma, d.shape), 1e-6)
+    return np.asarray(-0.5 * ((d / sigma) ** 2).sum(axis=-1) - np.log(sigma).sum(axis=-1) - 1.5 * math.log(2 * math.pi))
 
 
 def _size(res: deque[F64]) -> float:

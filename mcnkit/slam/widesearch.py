@@ -26,10 +26,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from mcnkit.geometry import relative
+from mcnkit.geometry import compose, relative
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.correlative import LikelihoodGrid, angular_step, likelihood_grid, match_scan, thin_points
 from mcnkit.slam.maps import TiledHitMaps
+from mcnkit.slam.scanmotion import MotionGuess, outlier_share
 
 __all__ = ["tracking_grid", "unknown_motion_match", "wide_match", "wide_window"]
 
@@ -95,7 +96,7 @@ def wide_match(
 
 
 def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigma: F64, reach: tuple[float, float],
-                         points_base: F64, config: SlamConfig) -> F64 | None:
+                         points_base: F64, config: SlamConfig, guess: MotionGuess | None = None) -> F64 | None:
     """The scan's most probable pose when no odometry gives its motion: the scan's match times the motion prior.
 
     ``before`` (3,) is the robot's pose at the scan before, ``predicted`` (3,) where the motion prior
@@ -114,33 +115,61 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
     fastest motion over one scan, within ``motion.unknown_window_m`` × ``motion.unknown_window_rad``), searched
     only for a pose that could win.  So where the
     scan cannot tell poses apart (a corridor's axis, a room seen half a turn apart by a 180° scanner) the one
-    nearest the prediction wins.  None when the map explains the scan too poorly."""
+    nearest the prediction wins.
+
+    With a ``guess`` that knows the recent steps (:class:`mcnkit.slam.scanmotion.MotionGuess`) the distance term is
+    the guess's own density instead: ``log p(step) = log((1 − ε) q(step) + ε / V)``, ``q`` its
+    :meth:`~mcnkit.slam.scanmotion.MotionGuess.log_density` (spreads widened by the lattice, as above), ``V`` the
+    volume searched (``reach``) and ``ε`` the share of this log's steps that ``q`` did not predict
+    (:func:`mcnkit.slam.scanmotion.outlier_share`), counted from its most probable step; windows are searched
+    around each of its modes.  A pose a quarter turn from every kind of step the robot makes then wins only where it
+    explains the scan as much better as the log has shown such steps to be rare.  None when the map explains the
+    scan too poorly."""
     scan = _search_points(points_base, grid.resolution_m, config)
     if scan is None:
         return None
     beams = config.updates.proposal_beams
     res, floor_rad = grid.resolution_m, math.radians(1.0)
     win_xy, win_rad = reach
-    xy = min(max(3.0 * float(max(sigma[0], sigma[1])), res), config.motion.unknown_window_m)
-    rad = min(max(3.0 * float(sigma[2]), floor_rad), config.motion.unknown_window_rad)
 
-    cap = beams * math.log(1.0 / config.wide.jump_ratio)
     # the prior's spread widened by the search lattice (see the docstring)
     lattice = np.array([res, res, angular_step(scan, res)])
-    spread = np.sqrt(np.asarray(sigma, np.float64) ** 2 + lattice**2)
+    if guess is not None and len(guess.recent):
+        log_u = -math.log((2.0 * win_xy) ** 2 * 2.0 * win_rad)
+        eps = outlier_share(guess.log_q_recent, log_u)
+        modes = guess.modes()
+        most = float(np.max(guess.log_density(np.r_[modes, guess.recent], lattice)))  # the most probable step
+        top = float(np.logaddexp(math.log(1.0 - eps) + most, math.log(eps) + log_u))
+
+        def penalty(pose: F64) -> float:
+            q = float(guess.log_density(relative(before, pose)[None, :], lattice)[0])
+            return max(0.0, top - float(np.logaddexp(math.log(1.0 - eps) + q, math.log(eps) + log_u)))
+
+        centres = [(compose(before, m), guess.sigma if k == 0 else guess.bandwidth) for k, m in enumerate(modes)]
+    else:
+        cap = beams * math.log(1.0 / config.wide.jump_ratio)
+        spread = np.sqrt(np.asarray(sigma, np.float64) ** 2 + lattice**2)
+
+        def penalty(pose: F64) -> float:
+            d = relative(predicted, pose) / spread
+            return min(0.5 * float(d @ d), cap)
+
+        centres = [(predicted, np.asarray(sigma, np.float64))]
 
     def value(pose: F64, score: float) -> float:
-        d = relative(predicted, pose) / spread
-        return beams * math.log(score) - min(0.5 * float(d @ d), cap)
+        return beams * math.log(score) - penalty(pose)
 
     best: tuple[float, F64] | None = None
-    while True:
-        found = match_scan(grid, scan, predicted, xy, rad)
-        if found.score > 0 and (best is None or value(found.pose, found.score) > best[0]):
-            best = (value(found.pose, found.score), found.pose)
-        if xy <= res and rad <= floor_rad:
-            break
-        xy, rad = max(xy / 2, res), max(rad / 2, floor_rad)
+    for centre, around in centres:
+        xy = min(max(3.0 * float(max(around[0], around[1])), res), config.motion.unknown_window_m)
+        rad = min(max(3.0 * float(around[2]), floor_rad), config.motion.unknown_window_rad)
+        while True:
+            found = match_scan(grid, scan, centre, xy, rad)
+            if found.score > 0 and (best is None or value(found.pose, found.score) > best[0]):
+                best = (value(found.pose, found.score), found.pose)
+            if xy <= res and rad <= floor_rad:
+                break
+            xy, rad = max(xy / 2, res), max(rad / 2, floor_rad)
     # a pose of the whole window wins only if it scores above exp(best value / beams) (its distance adds nothing)
     bar = math.exp(best[0] / beams) if best is not None else 0.0
     wide = match_scan(grid, scan, before, win_xy, win_rad, min_score=bar)

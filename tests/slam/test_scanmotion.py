@@ -12,7 +12,7 @@ from mcnkit.geometry import compose, relative
 from mcnkit.slam import FastSlam, SlamConfig
 from mcnkit.slam.config import LoopsConfig, MotionConfig
 from mcnkit.slam.correlative import likelihood_grid
-from mcnkit.slam.scanmotion import MotionPrior, motion_covariance, sample_increments
+from mcnkit.slam.scanmotion import MotionPrior, motion_covariance, outlier_share, sample_increments
 from mcnkit.slam.widesearch import unknown_motion_match
 from mcnkit.types import Frame, Pose2D, Scan
 from tests.slam.test_fastslam import LIDAR, cast, drifting_odometry, true_path
@@ -86,6 +86,62 @@ def test_near_ties_go_to_the_prediction() -> None:
         assert found is not None
         assert found[0] == pytest.approx(x, abs=0.25)
         assert abs(found[1]) < 0.06 and abs(found[2]) < math.radians(1.5)
+
+
+def _drives_and_turns(steps: int) -> MotionPrior:
+    """The prior of a log kept by distance: 1 m drives and 30° turns in place (either way), two drives to a turn,
+    the last step a turn."""
+    rng = np.random.default_rng(1)
+    prior = MotionPrior(window=50, default_sigma=np.ones(3), min_sigma=np.array([0.02, 0.02, math.radians(1.0)]))
+    for k in range(steps):
+        if k % 3 == 2:
+            step = np.array([0.02, 0.0, math.radians(30.0) * rng.choice([-1.0, 1.0]) + rng.normal(0, 0.03)])
+        else:
+            step = np.array([1.0 + rng.normal(0, 0.05), rng.normal(0, 0.02), rng.normal(0, 0.03)])
+        prior.add(step, float(rng.uniform(1.0, 5.0)))
+    return prior
+
+
+def test_the_prior_knows_the_kinds_of_step_the_robot_makes() -> None:
+    guess = _drives_and_turns(60).predict(3.0)  # the last step was a turn: the constant step predicts another
+    assert abs(guess.mean[2]) > math.radians(20)
+    drive, left, right = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 0.52]), np.array([0.0, 0.0, -0.52])
+    quarter_turn, backwards = np.array([0.0, 0.0, math.pi / 2]), np.array([-1.0, 0.0, 0.0])
+    dens = guess.log_density(np.stack([drive, left, right, quarter_turn, backwards]))
+    assert dens[0] > dens[3] + 10 and min(dens[1], dens[2]) > dens[3] + 10  # every kind of step: likely
+    assert dens[4] < dens[:3].min() - 2  # a step it never made: several times less (the last step's wide Gaussian keeps it possible)
+    modes = guess.modes()  # where the search looks: the prediction and the densest kinds of step
+    assert 3 <= len(modes) <= 4 and np.abs(modes[1:] - drive).sum(axis=1).min() < 0.1
+    for turn in (left, right):  # each turn either way lies within three bandwidths of one of them
+        assert (np.abs(modes - turn) / guess.bandwidth).max(axis=1).min() < 3
+
+
+def test_the_share_of_steps_no_prediction_explains_is_measured() -> None:
+    rng = np.random.default_rng(0)
+    log_u = -math.log(4.0**2 * 2 * math.pi)
+    well = rng.normal(2.0, 0.5, 200)  # every step predicted with a density well above the uniform's
+    assert outlier_share(well, log_u) == pytest.approx(0.01)  # the floor
+    mixed = np.where(rng.random(400) < 0.3, log_u - 5.0, 2.0)  # 30 % far beyond what the prediction expects
+    assert outlier_share(mixed, log_u) == pytest.approx(0.3, abs=0.05)
+    assert outlier_share(np.zeros(0), log_u) == 0.5
+
+
+def test_after_a_turn_in_place_a_corridor_scan_is_placed_a_drive_on() -> None:
+    # a corridor pins the heading and the side, not the axis: the prior decides how far the robot went.  The
+    # last step predicts another turn in place, so no translation; the kinds of step this robot makes say a drive
+    walls = _corridor()
+    grid = likelihood_grid(walls, 0.1, 0.15, 0.1, depth=5)
+    scan = walls[np.abs(walls[:, 0]) < 6.0] + 0.013  # the robot at the origin, facing down the corridor
+    before = np.array([-1.0, 0.0, 0.0])
+    prior = _drives_and_turns(60)
+    guess = prior.predict(3.0)
+    predicted = compose(before, guess.mean)
+    cfg = SlamConfig()
+    alone = unknown_motion_match(grid, before, predicted, guess.sigma, (2.0, math.pi), scan, cfg)
+    assert alone is not None and alone[0] < -0.6  # the last step alone: it stood still
+    found = unknown_motion_match(grid, before, predicted, guess.sigma, (2.0, math.pi), scan, cfg, guess)
+    assert found is not None
+    assert abs(found[0]) < 0.25 and abs(found[1]) < 0.06 and abs(found[2]) < math.radians(1.5)
 
 
 def test_a_pose_far_from_the_prediction_wins_when_it_explains_the_scan_clearly_better() -> None:
