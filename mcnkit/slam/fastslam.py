@@ -300,10 +300,10 @@ class FastSlam:
             else:  # no odometry for this motion, or one the scans contradict: found from the scans alone
                 self.n_odometry_rejected += int(known)
                 self.n_unknown_motion += int(not known)
-                if cov is None:
-                    tracked, cov = self._track_unknown_motion(beams, odom, guess)
+                if cov is None:  # where odometry was rejected the robot did something unusual: no steps' density
+                    tracked, cov = self._track_unknown_motion(beams, odom, guess, usual=not known)
                 self._last_motion = move = relative(self._scan_online[-1], tracked)
-            self.prior.add(self._last_motion, dt_s)
+            self.prior.add(self._last_motion, dt_s, guess)
             self._linear_m += math.hypot(move[0], move[1])
             self._angular_rad += abs(move[2])
             if cov is not None:  # the particles spread by what the match left undetermined
@@ -430,11 +430,15 @@ class FastSlam:
         scores, _ = score_poses(self.maps, self.best_index, np.stack([pose, other]), end_b, back_b, self.config)
         return bool(scores[0] > 1.05 * scores[1])
 
-    def _track_unknown_motion(self, beams: tuple[F64, F64, F64], odom: F64, guess: MotionGuess) -> tuple[F64, F64]:
+    def _track_unknown_motion(self, beams: tuple[F64, F64, F64], odom: F64, guess: MotionGuess,
+                              usual: bool = False) -> tuple[F64, F64]:
         """The best particle's pose at a scan whose motion no odometry gives, and the covariance (3, 3; robot frame)
         of that motion: searched around where the motion prior predicts it (``guess``; see
         ``motion.unknown_window_m``), then hill-climbed; its spread is the match's uncertainty combined with the
-        prior's (:func:`mcnkit.slam.scanmotion.motion_covariance`)."""
+        prior's (:func:`mcnkit.slam.scanmotion.motion_covariance`).  ``usual``: the step is one of the robot's usual
+        ones (the log holds no odometry for it), so the density of its recent steps weighs the poses
+        (:func:`~mcnkit.slam.widesearch.unknown_motion_match`); off where the scans contradicted the odometry, a
+        slip or a jump, which the robot's usual steps do not foretell."""
         cfg = self.config
         prior_cov = np.diag(guess.sigma**2)
         if not cfg.matching.track_every_scan:
@@ -444,7 +448,8 @@ class FastSlam:
         end_b, back_b, _ = beams
         if self._grid is not None:
             reach = self.prior.reach(cfg.motion.unknown_window_m, cfg.motion.unknown_window_rad)
-            found = unknown_motion_match(self._grid, before, start, guess.sigma, reach, end_b, cfg, guess)
+            found = unknown_motion_match(self._grid, before, start, guess.sigma, reach, end_b, cfg,
+                                         guess if usual else None)
             if found is not None:
                 start = found
         tracked = match_scans_to_map(self.maps, self.best_index, start[None, :], [(end_b, back_b)], cfg)[0]

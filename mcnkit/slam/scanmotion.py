@@ -166,11 +166,13 @@ class MotionPrior:
         bandwidth = np.maximum(1.06 * recent.std(axis=0) * len(recent) ** -0.2, self.min_sigma)
         return MotionGuess(preds[mode].copy(), sigma, recent, bandwidth, np.asarray(self._log_q, np.float64))
 
-    def add(self, motion: F64, dt_s: float | None) -> None:
-        """The motion (3,) the tracking found over the last scan, ``dt_s`` after the scan before (None: no time)."""
+    def add(self, motion: F64, dt_s: float | None, guess: MotionGuess | None = None) -> None:
+        """The motion (3,) the tracking found over the last scan, ``dt_s`` after the scan before (None: no time);
+        ``guess``: what :meth:`predict` said for it, if the caller kept it (else it is made again)."""
         motion = np.asarray(motion, np.float64)
         if self._steps >= self.min_samples:  # how well the guess before it predicted this step
-            self._log_q.append(float(self.predict(dt_s).log_density(motion[None, :])[0]))
+            made = self.predict(dt_s) if guess is None else guess
+            self._log_q.append(float(made.log_density(motion[None, :])[0]))
         if self._last is not None:
             for mode, pred in self._predictions(dt_s).items():
                 err = motion - pred

@@ -121,8 +121,8 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
     the guess's own density instead: ``log p(step) = log((1 − ε) q(step) + ε / V)``, ``q`` its
     :meth:`~mcnkit.slam.scanmotion.MotionGuess.log_density` (spreads widened by the lattice, as above), ``V`` the
     volume searched (``reach``) and ``ε`` the share of this log's steps that ``q`` did not predict
-    (:func:`mcnkit.slam.scanmotion.outlier_share`), counted from its most probable step; windows are searched
-    around each of its modes.  A pose a quarter turn from every kind of step the robot makes then wins only where it
+    (:func:`mcnkit.slam.scanmotion.outlier_share`); a pose's penalty is how much less probable its step is than the
+    most probable one.  Windows are searched around each of the density's modes.  A pose a quarter turn from every kind of step the robot makes then wins only where it
     explains the scan as much better as the log has shown such steps to be rare.  None when the map explains the
     scan too poorly."""
     scan = _search_points(points_base, grid.resolution_m, config)
@@ -133,7 +133,8 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
     win_xy, win_rad = reach
 
     # the prior's spread widened by the search lattice (see the docstring)
-    lattice = np.array([res, res, angular_step(scan, res)])
+    astep = angular_step(scan, res)  # the heading step of every search below (found once)
+    lattice = np.array([res, res, astep])
     if guess is not None and len(guess.recent):
         log_u = -math.log((2.0 * win_xy) ** 2 * 2.0 * win_rad)
         eps = outlier_share(guess.log_q_recent, log_u)
@@ -164,7 +165,10 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
         xy = min(max(3.0 * float(max(around[0], around[1])), res), config.motion.unknown_window_m)
         rad = min(max(3.0 * float(around[2]), floor_rad), config.motion.unknown_window_rad)
         while True:
-            found = match_scan(grid, scan, centre, xy, rad)
+            # a pose wins only if it scores above exp(best value / beams) (its penalty is never negative): the
+            # search skips every branch that cannot
+            bar = math.exp(best[0] / beams) if best is not None else 0.0
+            found = match_scan(grid, scan, centre, xy, rad, astep, min_score=bar)
             if found.score > 0 and (best is None or value(found.pose, found.score) > best[0]):
                 best = (value(found.pose, found.score), found.pose)
             if xy <= res and rad <= floor_rad:
@@ -172,10 +176,10 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
             xy, rad = max(xy / 2, res), max(rad / 2, floor_rad)
     # a pose of the whole window wins only if it scores above exp(best value / beams) (its distance adds nothing)
     bar = math.exp(best[0] / beams) if best is not None else 0.0
-    wide = match_scan(grid, scan, before, win_xy, win_rad, min_score=bar)
+    wide = match_scan(grid, scan, before, win_xy, win_rad, astep, min_score=bar)
     if wide.score > 0 and (best is None or value(wide.pose, wide.score) > best[0]):
         best = (value(wide.pose, wide.score), wide.pose)
     if best is None:
         return None
-    peak = match_scan(grid, scan, best[1], 2 * res, 2 * floor_rad)  # the top of the chosen mode, prior aside
+    peak = match_scan(grid, scan, best[1], 2 * res, 2 * floor_rad, astep)  # the top of the chosen mode, prior aside
     return peak.pose if peak.score >= config.wide.min_score else None
