@@ -51,12 +51,14 @@ from numpy.typing import NDArray
 
 from mcnkit.geometry import compose, wrap_angle
 
-__all__ = ["MotionGuess", "MotionPrior", "motion_covariance", "outlier_share", "sample_increments"]
+__all__ = ["MIN_DENSITY_STEPS", "MotionGuess", "MotionPrior", "motion_covariance", "outlier_share", "sample_increments"]
 
 F64 = NDArray[np.float64]
 
 _MIN_DT_S = 1e-3
 """Scans closer in time than this carry no usable time (duplicated or rebuilt stamps): constant step."""
+MIN_DENSITY_STEPS = 10
+"""Recent steps the density needs before it joins the prior."""
 _MAX_RATE_CHANGE = 4.0
 """Constant velocity scales the last step by the ratio of the two scan intervals, at most this much either way (a
 scan delayed by a hiccup of the driver must not predict a jump)."""
@@ -71,7 +73,7 @@ class MotionGuess:
     sigma: F64
     """Standard deviation of each component of ``mean`` (3,)."""
     recent: F64 = field(default_factory=lambda: np.zeros((0, 3)))
-    """(N, 3) the recent tracked steps, the kernel density's centres (none before ``min_samples`` steps: the
+    """(N, 3) the recent tracked steps, the kernel density's centres (none before ``MIN_DENSITY_STEPS`` steps: the
     Gaussian alone)."""
     bandwidth: F64 = field(default_factory=lambda: np.ones(3))
     """(3,) the kernel density's bandwidth (Silverman's rule per component, at least the prior's ``min_sigma``)."""
@@ -117,8 +119,8 @@ class MotionPrior:
         default_sigma: the spread (3,) before ``min_samples`` steps were seen.
         min_sigma: the spread is never below this (3,): a robot that drove perfectly steadily so far may still
             brake.
-        min_samples: residuals needed before the measured spread and the choice of prediction are used, and steps
-            before their density joins the Gaussian.
+        min_samples: residuals needed before the measured spread and the choice of prediction are used (the
+            recent steps' density joins the Gaussian after ``MIN_DENSITY_STEPS``).
     """
 
     def __init__(self, window: int, default_sigma: F64, min_sigma: F64 | None = None, min_samples: int = 30) -> None:
@@ -160,7 +162,7 @@ class MotionPrior:
             r = np.abs(np.asarray(res))
             sigma = np.percentile(r, 90, axis=0) / 1.645  # a Gaussian's 90th percentile: heavy tails widen it
         sigma = np.maximum(sigma, self.min_sigma)
-        if len(res) < self.min_samples or len(self._recent) < self.min_samples:
+        if len(self._recent) < MIN_DENSITY_STEPS:
             return MotionGuess(preds[mode].copy(), sigma)
         recent = np.asarray(self._recent)
         bandwidth = np.maximum(1.06 * recent.std(axis=0) * len(recent) ** -0.2, self.min_sigma)
@@ -170,8 +172,8 @@ class MotionPrior:
         """The motion (3,) the tracking found over the last scan, ``dt_s`` after the scan before (None: no time);
         ``guess``: what :meth:`predict` said for it, if the caller kept it (else it is made again)."""
         motion = np.asarray(motion, np.float64)
-        if self._steps >= self.min_samples:  # how well the guess before it predicted this step
-            made = self.predict(dt_s) if guess is None else guess
+        made = self.predict(dt_s) if guess is None else guess
+        if len(made.recent):  # how well the density before it predicted this step
             self._log_q.append(float(made.log_density(motion[None, :])[0]))
         if self._last is not None:
             for mode, pred in self._predictions(dt_s).items():
@@ -195,17 +197,18 @@ class MotionPrior:
 
 
 def outlier_share(log_q: F64, log_u: float, iterations: int = 30) -> float:
-    """The share ``ε`` of steps that no prediction explains: the maximum-likelihood weight of a uniform density
-    (``log_u``: over the region searched) in the mixture ``(1 − ε) q + ε u`` of the steps' predicted densities
-    ``log_q`` (N,) (expectation-maximisation), within [0.01, 0.5]; 0.5 when no step is known yet."""
+    """The share ``ε`` of steps that no prediction explains: the weight of a uniform density (``log_u``: over the
+    region searched) in the mixture ``(1 − ε) q + ε u`` of the steps' predicted densities ``log_q`` (N,), by
+    expectation-maximisation, its most probable value under a Beta(2, 2) prior (``(Σ r + 1) / (N + 2)`` with ``r``
+    each step's responsibility of the uniform): 0.5 before any step is known, and a few well-predicted steps do not
+    make it 0.  Within [0.01, 0.5]."""
     log_q = np.asarray(log_q, np.float64)
-    if len(log_q) == 0:
-        return 0.5
     eps = 0.1
     for _ in range(iterations):
         a = math.log(eps) + log_u
         b = math.log(1.0 - eps) + log_q
-        eps = float(np.clip(np.mean(np.exp(a - np.logaddexp(a, b))), 0.01, 0.5))
+        r = np.exp(a - np.logaddexp(a, b))
+        eps = float(np.clip((r.sum() + 1.0) / (len(log_q) + 2.0), 0.01, 0.5))
     return eps
 
 
