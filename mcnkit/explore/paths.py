@@ -120,10 +120,14 @@ def cost_field(image: NDArray[np.floating], grid: GridSpec, start_xy_m: F64, rob
     res = grid.resolution_m
     traversable, clearance = traversable_cells(image, res, robot_radius_m, margin_m)
     robot = grid.world_to_cell(np.asarray(start_xy_m, np.float64))
-    if footprint:
-        rows, cols = np.ogrid[: grid.shape[0], : grid.shape[1]]
+    if footprint:  # only the cells of the robot's disc are looked at
+        r = int(np.ceil(robot_radius_m / res))
+        r0, c0 = max(int(robot[0]) - r, 0), max(int(robot[1]) - r, 0)
+        r1, c1 = min(int(robot[0]) + r + 1, grid.shape[0]), min(int(robot[1]) + r + 1, grid.shape[1])
+        rows, cols = np.ogrid[r0:r1, c0:c1]
         under = np.hypot(rows - robot[0], cols - robot[1]) * res <= robot_radius_m
-        traversable = traversable | (under & (image != OCCUPIED))
+        traversable = traversable.copy()
+        traversable[r0:r1, c0:c1] |= under & (image[r0:r1, c0:c1] != OCCUPIED)
     start = _snap(traversable, robot, res)
     if start is None:
         return CostField(grid, traversable, np.full(grid.shape, np.inf), None, None)

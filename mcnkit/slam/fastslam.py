@@ -448,8 +448,7 @@ class FastSlam:
         end_b, back_b, _ = beams
         if self._grid is not None:
             reach = self.prior.reach(cfg.motion.unknown_window_m, cfg.motion.unknown_window_rad)
-            found = unknown_motion_match(self._grid, before, start, guess.sigma, reach, end_b, cfg,
-                                         guess if usual else None)
+            found = unknown_motion_match(self._grid, before, guess, reach, end_b, cfg, density=usual)
             if found is not None:
                 start = found
         tracked = match_scans_to_map(self.maps, self.best_index, start[None, :], [(end_b, back_b)], cfg)[0]

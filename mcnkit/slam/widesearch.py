@@ -95,13 +95,14 @@ def wide_match(
     return near.pose, False
 
 
-def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigma: F64, reach: tuple[float, float],
-                         points_base: F64, config: SlamConfig, guess: MotionGuess | None = None) -> F64 | None:
+def unknown_motion_match(grid: LikelihoodGrid, before: F64, guess: MotionGuess, reach: tuple[float, float],
+                         points_base: F64, config: SlamConfig, density: bool = True) -> F64 | None:
     """The scan's most probable pose when no odometry gives its motion: the scan's match times the motion prior.
 
-    ``before`` (3,) is the robot's pose at the scan before, ``predicted`` (3,) where the motion prior
-    (:class:`mcnkit.slam.scanmotion.MotionPrior`) puts it now and ``sigma`` (3,; its frame) how far off that may
-    be.  A pose scores ``beams · log(score) - min(d² / 2, cap)``:
+    ``before`` (3,) is the robot's pose at the scan before and ``guess`` what the motion prior
+    (:class:`mcnkit.slam.scanmotion.MotionPrior`) says of the motion since: the robot predicted at
+    ``predicted = before ⊕ guess.mean``, ``guess.sigma`` (3,; its frame) how far off that may be.  A pose scores
+    ``beams · log(score) - min(d² / 2, cap)``:
     the match's mean likelihood counted as ``updates.proposal_beams`` independent beams (as the improved proposal
     counts a scan), and the squared Mahalanobis distance ``d²`` from the prediction (the prior's spread widened by
     the search lattice, a cell and an angular step: the lattice pose nearest the prediction is often a cell off, and
@@ -117,25 +118,26 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
     scan cannot tell poses apart (a corridor's axis, a room seen half a turn apart by a 180° scanner) the one
     nearest the prediction wins.
 
-    With a ``guess`` that knows the recent steps (:class:`mcnkit.slam.scanmotion.MotionGuess`) the distance term is
-    the guess's own density instead: ``log p(step) = log((1 − ε) q(step) + ε / V)``, ``q`` its
+    With ``density`` and a guess that knows the recent steps (:class:`mcnkit.slam.scanmotion.MotionGuess`) the
+    distance term is the guess's own density instead: ``log p(step) = log((1 − ε) q(step) + ε / V)``, ``q`` its
     :meth:`~mcnkit.slam.scanmotion.MotionGuess.log_density` (spreads widened by the lattice, as above), ``V`` the
     volume searched (``reach``) and ``ε`` the share of this log's steps that ``q`` did not predict
-    (:func:`mcnkit.slam.scanmotion.outlier_share`); a pose's penalty is how much less probable its step is than the
-    most probable one.  Windows are searched around each of the density's modes.  A pose a quarter turn from every kind of step the robot makes then wins only where it
-    explains the scan as much better as the log has shown such steps to be rare.  None when the map explains the
-    scan too poorly."""
+    (:func:`mcnkit.slam.scanmotion.outlier_share`); a pose's penalty is how much less probable its step is than
+    the most probable one.  Windows are searched around each of the density's modes.  A pose a quarter turn from
+    every kind of step the robot makes then wins only where it explains the scan as much better as the log has
+    shown such steps to be rare.  None when the map explains the scan too poorly."""
     scan = _search_points(points_base, grid.resolution_m, config)
     if scan is None:
         return None
     beams = config.updates.proposal_beams
     res, floor_rad = grid.resolution_m, math.radians(1.0)
     win_xy, win_rad = reach
+    predicted, sigma = compose(before, guess.mean), np.asarray(guess.sigma, np.float64)
 
     # the prior's spread widened by the search lattice (see the docstring)
     astep = angular_step(scan, res)  # the heading step of every search below (found once)
     lattice = np.array([res, res, astep])
-    if guess is not None and len(guess.recent):
+    if density and len(guess.recent):
         log_u = -math.log((2.0 * win_xy) ** 2 * 2.0 * win_rad)
         eps = outlier_share(guess.log_q_recent, log_u)
         modes = guess.modes()
@@ -149,13 +151,13 @@ def unknown_motion_match(grid: LikelihoodGrid, before: F64, predicted: F64, sigm
         centres = [(compose(before, m), guess.sigma if k == 0 else guess.bandwidth) for k, m in enumerate(modes)]
     else:
         cap = beams * math.log(1.0 / config.wide.jump_ratio)
-        spread = np.sqrt(np.asarray(sigma, np.float64) ** 2 + lattice**2)
+        spread = np.sqrt(sigma**2 + lattice**2)
 
         def penalty(pose: F64) -> float:
             d = relative(predicted, pose) / spread
             return min(0.5 * float(d @ d), cap)
 
-        centres = [(predicted, np.asarray(sigma, np.float64))]
+        centres = [(predicted, sigma)]
 
     def value(pose: F64, score: float) -> float:
         return beams * math.log(score) - penalty(pose)

@@ -12,7 +12,7 @@ from mcnkit.geometry import compose, relative
 from mcnkit.slam import FastSlam, SlamConfig
 from mcnkit.slam.config import LoopsConfig, MotionConfig
 from mcnkit.slam.correlative import likelihood_grid
-from mcnkit.slam.scanmotion import MotionPrior, motion_covariance, outlier_share, sample_increments
+from mcnkit.slam.scanmotion import MotionGuess, MotionPrior, motion_covariance, outlier_share, sample_increments
 from mcnkit.slam.widesearch import unknown_motion_match
 from mcnkit.types import Frame, Pose2D, Scan
 from tests.slam.test_fastslam import LIDAR, cast, drifting_odometry, true_path
@@ -82,7 +82,8 @@ def test_near_ties_go_to_the_prediction() -> None:
     cfg = SlamConfig()
     for x in (-0.8, 0.0, 0.6):  # wherever the prior says the robot went along the axis, it stays there
         predicted = np.array([x, 0.2, 0.05])  # off across the corridor and in heading too: those the scan pins
-        found = unknown_motion_match(grid, np.zeros(3), predicted, np.array([0.3, 0.3, 0.1]), (2.0, math.pi), scan, cfg)
+        found = unknown_motion_match(grid, np.zeros(3), MotionGuess(predicted, np.array([0.3, 0.3, 0.1])), (2.0, math.pi),
+                                     scan, cfg)
         assert found is not None
         assert found[0] == pytest.approx(x, abs=0.25)
         assert abs(found[1]) < 0.06 and abs(found[2]) < math.radians(1.5)
@@ -135,11 +136,10 @@ def test_after_a_turn_in_place_a_corridor_scan_is_placed_a_drive_on() -> None:
     before = np.array([-1.0, 0.0, 0.0])
     prior = _drives_and_turns(60)
     guess = prior.predict(3.0)
-    predicted = compose(before, guess.mean)
     cfg = SlamConfig()
-    alone = unknown_motion_match(grid, before, predicted, guess.sigma, (2.0, math.pi), scan, cfg)
+    alone = unknown_motion_match(grid, before, guess, (2.0, math.pi), scan, cfg, density=False)
     assert alone is not None and alone[0] < -0.6  # the last step alone: it stood still
-    found = unknown_motion_match(grid, before, predicted, guess.sigma, (2.0, math.pi), scan, cfg, guess)
+    found = unknown_motion_match(grid, before, guess, (2.0, math.pi), scan, cfg)
     assert found is not None
     assert abs(found[0]) < 0.25 and abs(found[1]) < 0.06 and abs(found[2]) < math.radians(1.5)
 
@@ -160,9 +160,8 @@ def test_a_pose_far_from_the_prediction_wins_when_it_explains_the_scan_clearly_b
     r = cast(truth, rng)
     ok = np.isfinite(r)
     scan = np.c_[r[ok] * np.cos(LIDAR.angles_rad[ok]), r[ok] * np.sin(LIDAR.angles_rad[ok])]
-    predicted = compose(before, np.array([1.0, 0.0, 0.0]))
-    found = unknown_motion_match(grid, before, predicted, np.array([0.1, 0.05, 0.05]), (2.0, math.pi), scan,
-                                 SlamConfig())
+    drive_on = MotionGuess(np.array([1.0, 0.0, 0.0]), np.array([0.1, 0.05, 0.05]))  # the prior: 1 m ahead
+    found = unknown_motion_match(grid, before, drive_on, (2.0, math.pi), scan, SlamConfig())
     assert found is not None
     assert np.hypot(*(found[:2] - truth[:2])) < 0.1 and abs(found[2] - truth[2]) < math.radians(1.5)
 
@@ -181,9 +180,8 @@ def test_a_prior_tighter_than_a_search_cell_still_beats_a_look_alike() -> None:
     blurred = corner + rng.normal(0, 0.04, corner.shape)
     grid = likelihood_grid(np.r_[blurred, copy], 0.1, 0.1, 0.1, depth=5)
     scan = corner + rng.normal(0, 0.005, corner.shape)  # the robot at the origin
-    predicted = np.array([0.04, -0.03, 0.01])
-    found = unknown_motion_match(grid, np.zeros(3), predicted, np.array([0.02, 0.02, math.radians(1.0)]),
-                                 (2.0, math.pi), scan, SlamConfig())
+    steady = MotionGuess(np.array([0.04, -0.03, 0.01]), np.array([0.02, 0.02, math.radians(1.0)]))
+    found = unknown_motion_match(grid, np.zeros(3), steady, (2.0, math.pi), scan, SlamConfig())
     assert found is not None
     assert np.hypot(found[0], found[1]) < 0.15 and abs(found[2]) < math.radians(3)
 
