@@ -1,14 +1,16 @@
 """What the sampled completions look like: test maps, their truth and K samples side by side.
 
-For the first ``--maps`` Experiment 1 test pairs (HouseExpo, one 180°, 2 m scan) one row each: m_t, the true map
+For the first ``--maps`` test pairs of ``--domain`` (default ``houseexpo``: Experiment 1's, one 180°, 2 m scan;
+``houseexpo-explore``: the maps part-way through an exploration that the ``*-explore`` nets complete) one row each: m_t, the true map
 m_T, ``--show`` of the K samples a shipped net draws (``mcnkit.completion.sample.sample_completions``, seeded) and
 the per-cell frequency of "free" over all K (white: every sample free, black: none; grey where they disagree).
 The figures of :mod:`benchmarks.bench_sampling` say whether samples are calibrated and whole; this picture is
 for looking at them: are rooms closed, are there doors, are walls straight?
 
-Writes ``benchmarks/results/sampler_gallery_<model>.png``.
+Writes ``benchmarks/results/sampler_gallery_<model>.png`` (``_<model>_<domain>.png`` for another domain).
 
-    .venv/bin/python -m benchmarks.studies.sampler_gallery [--model sampler] [--maps 10] [--k 16] [--show 5]
+    .venv/bin/python -m benchmarks.studies.sampler_gallery [--model sampler] [--domain houseexpo] [--maps 10] [--k 16]
+        [--show 5]
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import torch
 
 from benchmarks.common import RESULTS
 from mcnkit.completion.data import load_domain_pairs
-from mcnkit.completion.registry import MODELS
+from mcnkit.completion.registry import DOMAINS, MODELS
 from mcnkit.completion.sample import sample_completions
 from mcnkit.mcn import load_model
 
@@ -32,15 +34,17 @@ from mcnkit.mcn import load_model
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", default="sampler", choices=list(MODELS), help="the shipped net that draws the samples")
-    ap.add_argument("--maps", type=int, default=10, help="test pairs shown, the first of Experiment 1's (default 10)")
+    ap.add_argument("--domain", default="houseexpo", choices=DOMAINS,
+                    help="whose test pairs: houseexpo (Experiment 1's, default), houseexpo-explore or procedural")
+    ap.add_argument("--maps", type=int, default=10, help="test pairs shown, the first of the domain's (default 10)")
     ap.add_argument("--k", type=int, default=16, help="samples drawn per map, for the frequency column (default 16)")
     ap.add_argument("--show", type=int, default=5, help="samples shown per map (default 5)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the samples' generator (default 0)")
-    ap.add_argument("--out", type=Path, default=None, help="PNG to write (default results/sampler_gallery_MODEL.png)")
+    ap.add_argument("--out", type=Path, default=None, help="PNG to write (default results/sampler_gallery_MODEL[_DOMAIN].png)")
     a = ap.parse_args(argv)
     if not 1 <= a.show <= a.k:
         ap.error(f"--show {a.show} must be between 1 and --k {a.k}")
-    test = load_domain_pairs("houseexpo", 200, 200, 1000, 0, progress=False).test
+    test = load_domain_pairs(a.domain, 200, 200, 1000, 0, progress=False).test
     partial, target = test.partial[: a.maps], test.target[: a.maps]
     net = load_model(a.model)
     samples = sample_completions(net, partial, a.k, torch.Generator().manual_seed(a.seed)).samples
@@ -58,10 +62,12 @@ def main(argv: list[str] | None = None) -> int:
     for ax in axes.ravel():
         ax.set_xticks([])
         ax.set_yticks([])
-    fig.suptitle(f"{a.model}: the first {a.maps} Exp 1 test maps (black occupied, grey unknown, white free)",
+    which = "Exp 1" if a.domain == "houseexpo" else a.domain
+    fig.suptitle(f"{a.model}: the first {a.maps} {which} test maps (black occupied, grey unknown, white free)",
                  fontsize=9)
     fig.tight_layout()
-    out = a.out or RESULTS / f"sampler_gallery_{a.model}.png"
+    suffix = "" if a.domain == "houseexpo" else f"_{a.domain}"
+    out = a.out or RESULTS / f"sampler_gallery_{a.model}{suffix}.png"
     fig.savefig(out, dpi=80)
     print(out)
     return 0

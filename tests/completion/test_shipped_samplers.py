@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from mcnkit.completion.nets import MaskedSampler
@@ -16,13 +17,14 @@ from mcnkit.types import UNKNOWN
 
 def test_mcn_slam_samples_from_a_shipped_sampler_by_default() -> None:
     assert DEFAULT_MODEL == "sampler-explore"
-    for name in ("sampler", "sampler-explore"):
+    for name in ("sampler", "sampler-explore", "sampler-explore-large"):
         assert isinstance(load_model(name), MaskedSampler)
 
 
-def test_the_k_samples_differ_where_m_t_is_unknown_and_keep_what_it_observed(tiny_splits: PairSplits) -> None:
+@pytest.mark.parametrize("name", ["sampler-explore", "sampler-explore-large"])
+def test_the_k_samples_differ_where_m_t_is_unknown_and_keep_what_it_observed(tiny_splits: PairSplits, name: str) -> None:
     partial = tiny_splits.test.partial[:4]
-    s = sample_completions(load_model("sampler-explore"), partial, 4, torch.Generator().manual_seed(0))
+    s = sample_completions(load_model(name), partial, 4, torch.Generator().manual_seed(0))
     assert s.samples.shape == (4, 4, 64, 64) and not (s.samples == UNKNOWN).any()
     known = np.broadcast_to((partial != UNKNOWN)[:, None], s.samples.shape)
     assert np.array_equal(s.samples[known], np.broadcast_to(partial[:, None], s.samples.shape)[known])
