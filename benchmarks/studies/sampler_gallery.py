@@ -1,9 +1,10 @@
 """What the sampled completions look like: test maps, their truth and K samples side by side.
 
 For the first ``--maps`` test pairs of ``--domain`` (default ``houseexpo``: Experiment 1's, one 180°, 2 m scan;
-``houseexpo-explore``: the maps part-way through an exploration that the ``*-explore`` nets complete) one row each: m_t, the true map
-m_T, ``--show`` of the K samples a shipped net draws (``mcnkit.completion.sample.sample_completions``, seeded) and
-the per-cell frequency of "free" over all K (white: every sample free, black: none; grey where they disagree).
+``houseexpo-explore``: the maps part-way through an exploration that the ``*-explore`` nets complete) one row
+each: m_t, the true map m_T, ``--show`` of the K samples a shipped net draws
+(``mcnkit.completion.sample.sample_completions``, seeded) and the per-cell frequency of "free" over all K
+(white: every sample free, black: none; grey where they disagree).
 The figures of :mod:`benchmarks.bench_sampling` say whether samples are calibrated and whole; this picture is
 for looking at them: are rooms closed, are there doors, are walls straight?
 
@@ -40,7 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--k", type=int, default=16, help="samples drawn per map, for the frequency column (default 16)")
     ap.add_argument("--show", type=int, default=5, help="samples shown per map (default 5)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the samples' generator (default 0)")
-    ap.add_argument("--out", type=Path, default=None, help="PNG to write (default results/sampler_gallery_MODEL[_DOMAIN].png)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="PNG to write (default results/sampler_gallery_MODEL[_DOMAIN].png)")
     a = ap.parse_args(argv)
     if not 1 <= a.show <= a.k:
         ap.error(f"--show {a.show} must be between 1 and --k {a.k}")

@@ -9,7 +9,8 @@ __all__ = ["DEFAULT_MODEL", "DOMAINS", "MODELS", "CheckpointError", "default_wei
 
 MODELS = {"sampler": "sampler-houseexpo", "sampler-explore": "sampler-houseexpo-explore",
           "sampler-explore-large": "sampler-houseexpo-explore-large", "unet": "unet-houseexpo",
-          "unet-explore": "unet-houseexpo-explore", "pix2pix": "pix2pix-houseexpo", "unet-procedural": "unet-procedural"}
+          "unet-explore": "unet-houseexpo-explore", "pix2pix": "pix2pix-houseexpo",
+          "unet-procedural": "unet-procedural"}
 """Short names of the shipped weights (``mcnkit/weights/<name>.safetensors``): the masked samplers, which draw
 whole houses (HouseExpo's one-scan maps; maps part-way through an exploration, and the same with a U-net of four
 times the channels in its upper levels: better completions at three to five times the CPU), and the deterministic
