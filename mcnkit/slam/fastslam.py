@@ -620,8 +620,8 @@ class FastSlam:
             return poses
         max_range, usable = self._ranges(lidar)
         laser = lidar.base_to_laser.as_array()
-        returns = [beam_points(r, lidar.angles_rad, laser, max_range, min(usable, REFINE_RANGE_M), 0.0)[0]
-                   for r in self._scan_ranges]
+        returns = (beam_points(r, lidar.angles_rad, laser, max_range, min(usable, REFINE_RANGE_M), 0.0)[0]
+                   for r in self._scan_ranges)
         return refine_poses(poses, returns, self.config.resolution_m)
 
     def _match_scans(self, particle: int, poses: F64) -> F64:

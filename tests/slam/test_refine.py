@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mcnkit.slam.refine import refine_poses
 
@@ -70,3 +71,18 @@ def test_exact_poses_stay_and_no_pose_moves_more_than_allowed() -> None:
 def test_too_few_scans_are_returned_as_they_are() -> None:
     poses = np.zeros((5, 3))
     assert np.array_equal(refine_poses(poses, _room_returns(poses), 0.05), poses)
+
+
+def test_the_returns_may_come_as_a_generator_scan_by_scan() -> None:
+    rng = np.random.default_rng(3)
+    truth = _circle(40, 1.0)
+    noisy = truth + np.column_stack([rng.normal(0, 0.03, (40, 2)), rng.normal(0, np.radians(0.5), 40)])
+    returns = _room_returns(truth)
+    # a long log's raw returns need not all exist at once: the same result from a generator as from the list
+    assert np.array_equal(refine_poses(noisy, (r for r in returns), 0.05), refine_poses(noisy, returns, 0.05))
+
+
+def test_a_count_of_scans_that_differs_from_the_poses_is_refused() -> None:
+    poses = _circle(20, 1.0)
+    with pytest.raises(ValueError, match="20 poses but 19 scans"):
+        refine_poses(poses, iter(_room_returns(poses)[:19]), 0.05)
