@@ -205,7 +205,7 @@ def _beside(runs: list[Run]) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="filter seeds of every building (default 0 1 2)")
     parser.add_argument("--only", nargs="+", choices=list(BUILDINGS), help="a subset of the buildings")
     parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     parser.add_argument("--jobs", type=int, default=2, help="runs in parallel (default 2: this machine's cores)")

@@ -59,11 +59,12 @@ from typing import Any
 import numpy as np
 
 from benchmarks import hostile
-from benchmarks.common import ROOT, save_report
+from benchmarks.common import ROOT, data_dir, save_report
 from mcnkit.io import LogContent, LogError, open_log, write_log
 from mcnkit.types import Frame
 
-INTEL = ROOT.parent / "shared" / "data" / "reallab" / "intel" / "intel-corrected.log.gz"
+INTEL = Path("reallab", "intel", "intel-corrected.log.gz")
+"""The source of every mutant, in the shared data folder (``--data``)."""
 FORMATS = {"ros1": "log.bag", "mcap": "log.mcap", "ros2-sqlite3": "log_sqlite3", "carmen": "log.log",
            "ros2-mcap": "log_mcap", "mcap-ros1": "log_ros1.mcap", "ros2-sqlite3-file": "log_sqlite3_zstd",
            "ros2-mcap-message": "log_mcap_msgzstd"}
@@ -109,10 +110,10 @@ def impossible(frames: list[Frame]) -> str | None:
     return None
 
 
-def carmen_slice(n_scans: int, out: Path) -> Path:
-    """The first ``n_scans`` FLASER scans of the Intel log (with the ODOM / NEFF lines among them)."""
+def carmen_slice(source: Path, n_scans: int, out: Path) -> Path:
+    """The first ``n_scans`` FLASER scans of a CARMEN log (the Intel log's, with the ODOM / NEFF lines among them)."""
     lines, scans = [], 0
-    with gzip.open(INTEL, "rt", encoding="ascii") as f:
+    with gzip.open(source, "rt", encoding="ascii") as f:
         for line in f:
             if line.startswith("FLASER"):
                 if scans == n_scans:
@@ -260,7 +261,7 @@ def run_mutants(args: argparse.Namespace) -> dict[str, Any]:
 
 def _run(args: argparse.Namespace, root: Path) -> dict[str, Any]:
     (root / "clean").mkdir()
-    src = carmen_slice(args.scans, root / "clean" / FORMATS["carmen"])
+    src = carmen_slice(data_dir(args.data) / INTEL, args.scans, root / "clean" / FORMATS["carmen"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with open_log(src) as log:
@@ -485,9 +486,11 @@ def main() -> int:
                    help="skip the hostile inputs of benchmarks/hostile.py (run by default)")
     p.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "fuzz.json",
                    help="JSON report (default benchmarks/results/fuzz.json); a markdown table goes beside it (.md)")
+    p.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     args = p.parse_args()
-    if not INTEL.exists():
-        print(f"bench_fuzz: {INTEL}: the Intel lab log is needed (shared data)", file=sys.stderr)
+    intel = data_dir(args.data) / INTEL
+    if not intel.exists():
+        print(f"bench_fuzz: {intel}: the Intel lab log is needed (shared data; --data names its folder)", file=sys.stderr)
         return 2
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     report = run_mutants(args)

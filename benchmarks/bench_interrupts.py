@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import ROOT
+from benchmarks.common import data_dir
 
 RERUN = Path(sys.executable).parent / "rerun"
 ENV = {**os.environ, "RERUN_ANALYTICS": "0"}
@@ -60,12 +60,12 @@ def _try(argv: list[str], signum: int, delay_s: float, folder: Path) -> dict[str
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--tries", type=int, default=10)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--data", type=Path, default=Path(os.environ.get("MCNKIT_SHARED_DATA", ROOT.parent / "shared/data")))
+    ap.add_argument("--tries", type=int, default=10, help="interrupts per command and signal (default 10)")
+    ap.add_argument("--seed", type=int, default=0, help="random seed of the moments the signals are sent (default 0)")
+    ap.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     ap.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = ap.parse_args()
-    log = args.data / "reallab/mit-csail/mit-csail.clf"
+    log = data_dir(args.data) / "reallab/mit-csail/mit-csail.clf"
     rng = np.random.default_rng(args.seed)
     rows = []
     print("| command | signal | tries | exit 128+n | one line, no traceback | rrd verify | partial --out | "

@@ -44,10 +44,11 @@ def generated_frames(n_scans: int, n_beams: int, seed: int = 0) -> list[Frame]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--scans", type=int, default=20_000)
-    ap.add_argument("--beams", type=int, default=360)
+    ap.add_argument("--scans", type=int, default=20_000, help="scans in each generated log (default 20000)")
+    ap.add_argument("--beams", type=int, default=360, help="beams per scan (default 360)")
     ap.add_argument("--repeats", type=int, default=3, help="best of N reads")
-    ap.add_argument("--json", type=Path, default=Path("benchmarks/results/io.json"))
+    ap.add_argument("--json", type=Path, default=Path("benchmarks/results/io.json"),
+                    help="JSON report (default benchmarks/results/io.json)")
     args = ap.parse_args()
     frames = generated_frames(args.scans, args.beams)
     results = {}

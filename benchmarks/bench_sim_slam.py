@@ -88,7 +88,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--houseexpo", type=int, default=5, help="HouseExpo test plans (first N of the official list)")
     ap.add_argument("--procedural", type=int, default=3, help="procedural apartments")
-    ap.add_argument("--json", type=Path, default=Path("benchmarks/results/sim_slam.json"))
+    ap.add_argument("--json", type=Path, default=Path("benchmarks/results/sim_slam.json"),
+                    help="JSON report (default benchmarks/results/sim_slam.json)")
     args = ap.parse_args()
     from mcnkit.datasets.houseexpo import iter_plans
 

@@ -146,7 +146,7 @@ def yardstick(seed: int, data: Path) -> dict[str, float | int]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--only", nargs="+", choices=RADISH, help="a subset of the buildings (default: all six)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0, help="filter seed of the run (default 0)")
     parser.add_argument("--window", type=int, default=20, help="scans per window of the local comparison (default 20)")
     parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     args = parser.parse_args()
