@@ -63,6 +63,10 @@ class Task:
     """Window margins [m] at which every planning step's map is also completed and scored (the window study)."""
 
 
+TRUTH = "truth"
+"""``--model truth``: the ``mcn`` planner's completion is the true plan (one sample; the cells the map knows keep
+their label): what the scoring reaches with a perfect predictor.  Map F is then scored with ``sampler-explore``."""
+
 _NETS: dict[str, Any] = {}
 _RASTERS: dict[str, Any] = {}
 
@@ -73,6 +77,28 @@ def _net(model: str) -> Any:
 
         _NETS[model] = load_model(model)
     return _NETS[model]
+
+
+def truth_planner(raster: Any, gain: Any, range_m: float, generator: Any) -> Any:
+    """An ``mcn`` planner whose completion of the map is the plan itself (see :data:`TRUTH`): the SLAM map's frame
+    is the plan's (the robot starts at its true pose), so the plan pooled onto the window is what a perfect
+    predictor would draw, up to the map's drift."""
+    from mcnkit.explore.planners import McnPlanner, PlanningView
+    from mcnkit.explore.predict import Prediction, choose_window
+    from mcnkit.grid import pool_to_window
+    from mcnkit.types import FREE, OCCUPIED, UNKNOWN, TernaryMap
+
+    truth = TernaryMap(np.where(raster.free, FREE, OCCUPIED).astype(np.float32), raster.grid)
+
+    class TruthPlanner(McnPlanner):
+        def prediction(self, view: PlanningView) -> Prediction:
+            lineage = view.lineage
+            window = choose_window(lineage.seen_bounds_m(), self.config, 64, lineage.resolution_m, view.pose[:2])
+            partial = lineage.pooled(window).astype(np.float32)
+            plan = pool_to_window(truth, window, outside=OCCUPIED)
+            return Prediction(window, partial, np.where(partial == UNKNOWN, plan, partial)[None].astype(np.float32))
+
+    return TruthPlanner(None, gain, range_m, generator)  # type: ignore[arg-type]
 
 
 def run_task(task: Task) -> dict[str, Any]:
@@ -92,17 +118,20 @@ def run_task(task: Task) -> dict[str, Any]:
     raster = _RASTERS[task.spec]
     cfg, gain = ExploreConfig(**task.explore), GainConfig(**task.gain)
     planner: Planner = FrontierPlanner()
+    net_model = "sampler-explore" if task.model == TRUTH else task.model
     if task.planner == "mcn":
-        planner = McnPlanner(_net(task.model), gain, SimConfig().lidar.range_max_m,
-                             torch.Generator().manual_seed(seed_streams(task.seed)[2]))
+        generator = torch.Generator().manual_seed(seed_streams(task.seed)[2])
+        range_m = SimConfig().lidar.range_max_m
+        planner = (truth_planner(raster, gain, range_m, generator) if task.model == TRUTH
+                   else McnPlanner(_net(task.model), gain, range_m, generator))
     t0 = time.perf_counter()
     explorer = Explorer(raster, planner, cfg, seed=task.seed)
     probes: list[list[float]] = []
     while not explorer.done:
         record = explorer.step()
         if task.window_probe and record.decision is not None and explorer.lineage is not None:
-            probes.append(window_probe(explorer, _net(task.model), task.window_probe, gain.samples))
-    f_slam, f_done = final_map_f(explorer, _net(task.model), gain.samples, torch.Generator().manual_seed(task.seed))
+            probes.append(window_probe(explorer, _net(net_model), task.window_probe, gain.samples))
+    f_slam, f_done = final_map_f(explorer, _net(net_model), gain.samples, torch.Generator().manual_seed(task.seed))
     summary = summarize(explorer, f_slam, f_done)
     curve = coverage_curve(explorer.records)
     grid = np.arange(0.0, cfg.budget_m + 1e-9, GRID_STEP_M)
@@ -293,7 +322,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--houses", type=int, default=50, help="HouseExpo test houses (Experiment 2's, first N)")
     ap.add_argument("--procedural", type=int, default=20, help="procedural apartments (seeds 1..N)")
-    ap.add_argument("--model", default="sampler-explore", help="completion model (name or checkpoint path)")
+    ap.add_argument("--model", default="sampler-explore",
+                    help=f"completion model (name or checkpoint path); '{TRUTH}': the true plan, a perfect predictor")
     ap.add_argument("--stop-coverage", type=float, default=0.95, help="end a run at this coverage")
     ap.add_argument("--budget-m", type=float, default=120.0, help="path budget of a run [m]")
     ap.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes)")

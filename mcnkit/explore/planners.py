@@ -132,12 +132,8 @@ class McnPlanner:
     def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> tuple[F64, F64, Prediction | None]:
         """Expected gain (V,) [m²] and its trade-off against the path cost (V,) (``field``: the robot's path costs,
         for the ``tour`` and ``regret`` trade-offs' costs between viewpoints); the prediction it came from."""
-        from mcnkit.explore.predict import predict
-
         cfg = self.config
-        if cfg.same_noise:
-            self.generator.set_state(self._noise)
-        pred = predict(self.net, view.lineage, cfg, self.generator, view.pose[:2])
+        pred = self.prediction(view)
         if len(points) == 0:
             return np.zeros(0), np.zeros(0), pred
         w = pred.window
@@ -155,6 +151,16 @@ class McnPlanner:
         if cfg.local_m > 0:
             score = local_first(score, gain, points.cost_m, cfg.local_m, cfg.tour_min_gain_m2)
         return gain, score, pred
+
+    def prediction(self, view: PlanningView) -> Prediction:
+        """The completions the gains are computed on: K samples of the net on the window around the seen map
+        (:func:`mcnkit.explore.predict.predict`).  A subclass may supply others: the true plan, for the bound that a
+        perfect predictor would reach with the same scoring."""
+        from mcnkit.explore.predict import predict
+
+        if self.config.same_noise:
+            self.generator.set_state(self._noise)
+        return predict(self.net, view.lineage, self.config, self.generator, view.pose[:2])
 
     def _beyond_window(self, view: PlanningView, window: GridSpec, xy_m: F64, window_gains: F64) -> F64:
         """(V,) the gains beyond the completions' window (:func:`mcnkit.explore.gain.beyond_window_gains`), on a grid
