@@ -98,13 +98,12 @@ def refine_poses(poses: F64, returns_base: Iterable[F64], resolution_m: float, *
         ix, iy = _cells(poses, owner, bx, by, resolution_m)
         x0, y0 = int(ix.min()), int(iy.min())
         height = int(iy.max()) - y0 + 1
-        ix -= x0
-        ix *= height
+        key = ix  # in place: each return's cell as its index on a (width, height) grid
+        key -= x0
+        key *= height
         iy -= y0
-        ix += iy  # each return's cell as its index on a (width, height) grid
-        del iy
-        key = ix
-        del ix
+        key += iy
+        del ix, iy
         cells, counts = np.unique(key, return_counts=True)  # the hit cells, sorted, and their returns
         centres = np.asarray((np.column_stack([cells // height + x0, cells % height + y0]) + 0.5) * resolution_m, np.float64)
         moved = poses.copy()
