@@ -310,6 +310,10 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "unknown, ratio, local 4 m": ("mcn", None, {"gain": "unknown", "local_m": 4.0}, {}),
     "unknown, ratio, K = 8": ("mcn", None, {"gain": "unknown", "samples": 8}, {}),
     "unknown, ratio, K = 64": ("mcn", None, {"gain": "unknown", "samples": 64}, {}),
+    "unknown, ratio, empty goal let go": ("mcn", None, {"gain": "unknown"}, {"release_empty": True}),
+    "unknown, nearest worth 1 m²": ("mcn", None, {"gain": "unknown", "tradeoff": "nearest"}, {}),
+    "true plan: unknown, ratio": ("mcn", TRUTH, {"gain": "unknown"}, {}),
+    "true plan: unknown, nearest worth 1 m²": ("mcn", TRUTH, {"gain": "unknown", "tradeoff": "nearest"}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and
 ExploreConfig fields over the defaults).  ``--study-models`` adds ``unknown, ratio`` and ``disagreement, ratio``
@@ -341,12 +345,19 @@ def main() -> None:
     ap.add_argument("--gain", action="append", default=[], metavar="FIELD=VALUE",
                     help="a GainConfig field of the mcn runs, e.g. --gain finish_share=0.9 (repeatable; default: none, "
                          "the defaults)")
+    ap.add_argument("--explore", action="append", default=[], metavar="FIELD=VALUE",
+                    help="an ExploreConfig field of the mcn runs (the frontier runs keep the defaults), e.g. --explore "
+                         "release_empty=true (repeatable; default: none)")
     args = ap.parse_args()
     if args.variants and not args.study:
         ap.error("--variants chooses among the --study's variants; the test benchmark runs frontier and mcn")
-    if args.gain and args.study:
-        ap.error("--gain sets the mcn runs of the test benchmark; a --study's variants set their own (STUDY_VARIANTS)")
-    mcn_gain = _gain_options(ap, args.gain)
+    if (args.gain or args.explore) and args.study:
+        ap.error("--gain and --explore set the mcn runs of the test benchmark; a --study's variants set their own "
+                 "(STUDY_VARIANTS)")
+    from mcnkit.explore.config import ExploreConfig, GainConfig
+
+    mcn_gain = _config_options(ap, "--gain", GainConfig, args.gain)
+    mcn_loop = _config_options(ap, "--explore", ExploreConfig, args.explore)
     t_start = time.perf_counter()
     from mcnkit.datasets.houseexpo import houseexpo_source
 
@@ -379,7 +390,7 @@ def main() -> None:
         specs += [(f"procedural:{s}", "procedural") for s in range(1, args.procedural + 1)]
         for k, (spec, domain) in enumerate(specs):
             tasks += [Task(spec, domain, p, k + args.seed_offset, args.model, gain=mcn_gain if p == "mcn" else {},
-                           explore=explore)
+                           explore=explore | mcn_loop if p == "mcn" else explore)
                       for p in ("frontier", "mcn")]
     rows: list[dict[str, Any]] = []
     if args.jobs > 1:
@@ -393,7 +404,8 @@ def main() -> None:
         for task in tasks:
             rows.append(run_task(task))
             _print_row(rows[-1])
-    results: dict[str, Any] = {"benchmark": "bench_explore", "model": args.model, "explore": explore, "gain": mcn_gain,
+    results: dict[str, Any] = {"benchmark": "bench_explore", "model": args.model, "explore": explore,
+                               "explore_mcn": mcn_loop, "gain": mcn_gain,
                                "study": args.study, "seed_offset": args.seed_offset, "wall_s": None, "domains": {}}
     for domain in sorted({r["domain"] for r in rows}):
         sel = [r for r in rows if r["domain"] == domain]
@@ -424,28 +436,27 @@ def window_table(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
             for j, m in enumerate(margins)}
 
 
-def _gain_options(ap: argparse.ArgumentParser, items: list[str]) -> dict[str, Any]:
-    """``FIELD=VALUE`` strings as GainConfig fields (values typed like the defaults); an unknown field or a value
-    that does not parse ends with an error naming ``--gain``."""
+def _config_options(ap: argparse.ArgumentParser, flag: str, cls: type, items: list[str]) -> dict[str, Any]:
+    """``FIELD=VALUE`` strings as fields of the dataclass ``cls`` (values typed like the defaults); an unknown field
+    or a value that does not parse ends with an error naming ``flag``."""
     from dataclasses import fields
 
-    from mcnkit.explore.config import GainConfig
-
-    types = {f.name: type(getattr(GainConfig(), f.name)) for f in fields(GainConfig)}
+    defaults = cls()
+    types = {f.name: type(getattr(defaults, f.name)) for f in fields(cls)}
     out: dict[str, Any] = {}
     for item in items:
         name, _, value = item.partition("=")
         if name not in types or not value:
-            ap.error(f"--gain {item}: expected FIELD=VALUE with FIELD one of {', '.join(sorted(types))}")
+            ap.error(f"{flag} {item}: expected FIELD=VALUE with FIELD one of {', '.join(sorted(types))}")
         kind = types[name]
         try:
             out[name] = value.lower() in ("1", "true", "yes") if kind is bool else kind(value)
-        except ValueError:
-            ap.error(f"--gain {item}: {value!r} is not a {kind.__name__}")
+        except (TypeError, ValueError):
+            ap.error(f"{flag} {item}: {value!r} is not a {kind.__name__}")
     try:
-        GainConfig(**out)
+        cls(**out)
     except ValueError as err:
-        ap.error(f"--gain: {err}")
+        ap.error(f"{flag}: {err}")
     return out
 
 

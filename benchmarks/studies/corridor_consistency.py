@@ -10,7 +10,9 @@ Where the runs agree with the scans as well as the reference does or better, yet
 by more than a target, that target measures the reference's choices along directions the scans leave open (a
 corridor's axis), not the SLAM.
 
-Printed and written to ``benchmarks/results/NAME_consistency.{md,json}``.
+Printed and written to ``benchmarks/results/NAME_consistency.{md,json}``, with ``NAME_consistency.png``: the reference
+path with its scan numbers, and each run's distance from the reference scan by scan (after the rigid alignment of
+the ATE): where along the log the runs part from it and from each other.
 
     .venv/bin/python -m benchmarks.studies.corridor_consistency /path/infinite-corridor-corrected.log.gz [--seeds 0 1 2]
 """
@@ -35,6 +37,37 @@ def _run(cmd: list[str], what: str) -> str:
     if proc.returncode != 0:
         raise SystemExit(f"{what} failed: {(proc.stderr.strip().splitlines() or ['no message'])[-1]}")
     return proc.stdout
+
+
+def _plot(tracks: dict, path: Path, name: str) -> None:
+    """The reference path (scan numbers every 100 scans) and each run's distance from it, scan by scan."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from mcnkit.metrics import align_rigid_2d
+
+    ref = tracks["reference"].poses[:, :2]
+    fig, (ax_map, ax_err) = plt.subplots(1, 2, figsize=(14, 6), gridspec_kw={"width_ratios": [1, 1.3]})
+    ax_map.plot(ref[:, 0], ref[:, 1], "k-", lw=0.6)
+    for i in range(0, len(ref), 100):
+        ax_map.annotate(str(i), ref[i], fontsize=7, color="tab:red")
+    ax_map.set(aspect="equal", title=f"{name}: the reference, scan numbers", xlabel="x (m)", ylabel="y (m)")
+    for label, track in tracks.items():
+        if label == "reference":
+            continue
+        est = track.poses[:, :2]
+        n = min(len(est), len(ref))  # paired by order, as the ATE is
+        err = np.hypot(*(align_rigid_2d(est[:n], ref[:n]) - ref[:n]).T)
+        ax_err.plot(np.arange(n), err, lw=0.8, label=f"{label} (ATE {np.sqrt(np.mean(err**2)):.2f} m)")
+    ax_err.set(title="distance from the reference after the rigid alignment", xlabel="scan", ylabel="m")
+    ax_err.grid(alpha=0.3)
+    ax_err.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
 
 
 def main() -> int:
@@ -70,6 +103,7 @@ def main() -> int:
             tracks = {label: read_tum(path) for label, path in named.items()}
         ate = {f"{a} vs {b}": absolute_trajectory_error(tracks[b], tracks[a], match="order").rmse_m
                for a, b in itertools.combinations(named, 2)}
+    _plot(tracks, Path(f"{out}.png"), name)
     lines = [f"# {name}: ATE against the reference beside agreement with the log's own scans",
              "", "`python -m benchmarks.studies.corridor_consistency LOG` (mean relation error, lower = agrees better)",
              "", "| trajectory | ATE vs reference (m) | sequential (m / deg) | revisits (m / deg) |", "|---|---|---|---|"]

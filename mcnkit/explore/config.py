@@ -16,7 +16,7 @@ K sampled completions expect there, against the path cost."""
 
 
 GainKind = Literal["unknown", "disagreement", "observed", "consensus", "open"]
-TradeOff = Literal["ratio", "exp", "tour", "regret"]
+TradeOff = Literal["ratio", "exp", "tour", "regret", "nearest"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,9 @@ class ExploreConfig:
     ``commit_m`` keeps a committing planner's, until it is reached or given up: re-choosing at every planning step
     otherwise lets two far goals of about equal worth, whose scores the samples' noise swaps from one step to the
     next, turn the robot back and forth between them without end."""
+    release_empty: bool = False
+    """A goal kept by ``keep_returned`` is let go as soon as the planner expects nothing there (gain 0: every
+    sample walls off what the frontier hides), instead of being driven to for nothing."""
     blacklist_m: float = 0.5
     """Frontier viewpoints within this distance of a goal that was reached without its frontier going away, or that
     the robot could not get to, are dropped for the rest of the run [m]."""
@@ -111,15 +114,17 @@ class GainConfig:
     """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost);
     ``tour``: the first stop of the shortest tour from the robot through the (at most ``tour_places`` cheapest)
     viewpoints whose expected gain is at least ``tour_min_gain_m2`` (:mod:`mcnkit.explore.tour`); ``regret``: gain /
-    (path cost + ``cost_floor_m`` + how much longer that tour gets when it starts there), over the same viewpoints."""
+    (path cost + ``cost_floor_m`` + how much longer that tour gets when it starts there), over the same viewpoints;
+    ``nearest``: the nearest viewpoint worth at least ``tour_min_gain_m2`` (Yamauchi's rule with the frontiers that
+    the samples say hide nothing worth the trip left for last)."""
     cost_lambda_per_m: float = 0.3
     """λ of the ``exp`` trade-off [1/m]."""
     cost_floor_m: float = 1.0
     """Added to the path cost of the ``ratio`` trade-off, so a frontier at the robot's feet does not win by
     dividing by zero [m]."""
     tour_min_gain_m2: float = 1.0
-    """The ``tour`` and ``regret`` trade-offs (and ``local_m``) plan through the viewpoints the samples expect at least this much new
-    area from [m²] (all of them when none does)."""
+    """The ``tour``, ``regret`` and ``nearest`` trade-offs (and ``local_m``) plan through the viewpoints the samples expect at
+    least this much new area from [m²] (all of them when none does)."""
     tour_places: int = 12
     """The ``tour`` and ``regret`` trade-offs plan through at most this many viewpoints, the cheapest to reach."""
     local_m: float = 0.0

@@ -144,6 +144,8 @@ class McnPlanner:
         gain = gain + self._beyond_window(view, w, points.xy_m, gain)
         if cfg.tradeoff == "tour":
             score = tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places)
+        elif cfg.tradeoff == "nearest":
+            score = nearest_worth(gain, points.cost_m, cfg.tour_min_gain_m2)
         elif cfg.tradeoff == "regret":
             score = regret_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places, cfg.cost_floor_m)
         else:
@@ -181,6 +183,14 @@ class McnPlanner:
         origins = np.stack([(xy_m[:, 0] - outer.origin_x_m) / res, (xy_m[:, 1] - outer.origin_y_m) / res], 1)
         return beyond_window_gains(view.lineage.pooled(outer), inside, window_gains, origins, self.config.beams,
                                    self.range_m / res, res**2)
+
+
+def nearest_worth(gain: F64, cost_m: F64, min_gain_m2: float) -> F64:
+    """Scores (V,) that rank the viewpoints worth at least ``min_gain_m2`` by path cost, nearest first, above every
+    other (also by path cost; all of them when none is worth it)."""
+    cost = np.asarray(cost_m, np.float64)
+    worth = np.asarray(gain) >= min_gain_m2
+    return np.where(worth | ~worth.any(), -cost, -cost - (float(cost.max(initial=0.0)) + 1.0))
 
 
 def local_first(score: F64, gain: F64, cost_m: F64, local_m: float, min_gain_m2: float) -> F64:
@@ -285,12 +295,12 @@ def decide(view: PlanningView, planner: Planner, config: ExploreConfig, robot_ra
     if len(points):
         # best score; among equal scores the cheapest (points are sorted by cost, argmax takes the first)
         choice = int(np.argmax(score))
-        commits = planner.commits or keep_goal
-        if goal_xy_m is not None and config.commit_m > 0 and (commits or planner.keep_bonus > 0):
+        if goal_xy_m is not None and config.commit_m > 0 and (planner.commits or keep_goal or planner.keep_bonus > 0):
             d = np.hypot(*(points.xy_m - goal_xy_m).T)
             at_goal = int(np.argmin(d))
             if d[at_goal] <= config.commit_m:
-                if commits:
+                empty = config.release_empty and gain[at_goal] <= 0
+                if planner.commits or (keep_goal and not empty):
                     choice, kept = at_goal, True
                 elif score[at_goal] + planner.keep_bonus * abs(score[at_goal]) >= score[choice]:
                     choice, kept = at_goal, True

@@ -16,6 +16,7 @@ from mcnkit.explore.planners import (
     PlanningView,
     decide,
     local_first,
+    nearest_worth,
     planning_view,
     regret_scores,
     tour_scores,
@@ -89,19 +90,30 @@ def test_what_lies_beside_the_robot_goes_first_with_local_first() -> None:
     np.testing.assert_array_equal(local_first(ratio, gain, points.cost_m, 100.0, 1.0), ratio)
 
 
+def test_nearest_worth_goes_to_the_nearest_viewpoint_that_hides_enough() -> None:
+    gain, points, _ = _corridor_choice()
+    assert int(np.argmax(nearest_worth(gain, points.cost_m, 1.0))) == 0  # the closet beside the robot first
+    # a closet the samples expect too little from is left for last: the nearest of the others goes first
+    score = nearest_worth(np.array([0.5, 6.0, 6.0]), points.cost_m, 1.0)
+    assert int(np.argmax(score)) == 1 and score[0] < score[2]
+    # none worth it: the nearest of all, as the frontier planner
+    np.testing.assert_array_equal(nearest_worth(np.zeros(3), points.cost_m, 1.0), -points.cost_m)
+
+
 class _Fixed:
     """A planner whose scores are fixed: 1.2 for the cheapest viewpoint, 1.0 for the others."""
 
     name = "fixed"
     commits = False
 
-    def __init__(self, keep_bonus: float) -> None:
+    def __init__(self, keep_bonus: float, gain_m2: float = 0.0) -> None:
         self.keep_bonus = keep_bonus
+        self.gain_m2 = gain_m2
 
     def score(self, view: PlanningView, points: Viewpoints, field: object) -> tuple[np.ndarray, np.ndarray, None]:
         s = np.ones(len(points))
         s[0] = 1.2
-        return np.zeros(len(points)), s, None
+        return np.full(len(points), self.gain_m2), s, None
 
 
 def _half_known_view() -> PlanningView:
@@ -162,3 +174,13 @@ def test_sample_share_mixes_the_samples_gain_with_the_maps_own() -> None:
     assert plain[1] > 0  # from the passage the map's own walls leave unknown space in sight
     np.testing.assert_allclose(gain(sample_share=0.0), plain)
     np.testing.assert_allclose(gain(sample_share=0.5), 0.5 * samples_only + 0.5 * plain)
+
+
+@pytest.mark.parametrize(("release", "gain_m2", "kept"), [(False, 0.0, True), (True, 0.0, False), (True, 2.0, True)])
+def test_a_returned_goal_is_let_go_once_nothing_is_expected_there(release: bool, gain_m2: float, kept: bool) -> None:
+    view = _half_known_view()
+    config = ExploreConfig(release_empty=release)
+    goal = decide(view, _Fixed(0.0, gain_m2), config, 0.2, np.zeros((0, 2))).points.xy_m[1]
+    # the robot came back to this goal (keep_goal): kept against a better score, unless it promises nothing any more
+    again = decide(view, _Fixed(0.0, gain_m2), config, 0.2, np.zeros((0, 2)), goal, keep_goal=True)
+    assert again.kept is kept and again.choice == (1 if kept else 0)
