@@ -312,7 +312,9 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "unknown, ratio, K = 64": ("mcn", None, {"gain": "unknown", "samples": 64}, {}),
     "unknown, ratio, empty goal let go": ("mcn", None, {"gain": "unknown"}, {"release_empty": True}),
     "unknown, nearest worth 1 m²": ("mcn", None, {"gain": "unknown", "tradeoff": "nearest"}, {}),
+    "free, ratio": ("mcn", None, {"gain": "free"}, {}),
     "true plan: unknown, ratio": ("mcn", TRUTH, {"gain": "unknown"}, {}),
+    "true plan: free, ratio": ("mcn", TRUTH, {"gain": "free"}, {}),
     "true plan: unknown, nearest worth 1 m²": ("mcn", TRUTH, {"gain": "unknown", "tradeoff": "nearest"}, {}),
 }
 """The variants ``--study`` measures: name -> (planner; model, or None for ``--model``; GainConfig fields and

@@ -15,7 +15,7 @@ PLANNERS: tuple[PlannerName, ...] = ("frontier", "mcn")
 K sampled completions expect there, against the path cost."""
 
 
-GainKind = Literal["unknown", "disagreement", "observed", "consensus", "open"]
+GainKind = Literal["unknown", "disagreement", "observed", "consensus", "open", "free"]
 TradeOff = Literal["ratio", "exp", "tour", "regret", "nearest"]
 
 
@@ -109,7 +109,9 @@ class GainConfig:
     the unknown area seen through the SLAM map's known walls only (unknown space counted transparent);
     ``consensus``: the unknown area seen through the walls at least half the samples draw; ``open``: the unknown
     area the samples say is free (the share of them that do), seen through the SLAM map's known walls only: the
-    samples say how far the house goes, not where its unseen inner walls stand."""
+    samples say how far the house goes, not where its unseen inner walls stand; ``free``: in each sample, the unknown
+    area that sample calls free, seen through its own walls (what the coverage counts: free floor, not walls or the
+    outside)."""
     tradeoff: TradeOff = "ratio"
     """``ratio``: gain / (path cost + ``cost_floor_m``); ``exp``: gain · exp(−``cost_lambda_per_m`` · path cost);
     ``tour``: the first stop of the shortest tour from the robot through the (at most ``tour_places`` cheapest)

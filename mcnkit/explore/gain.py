@@ -13,7 +13,9 @@ it sees, averaged over the samples; the weights (:func:`cell_weights`) are
 * ``consensus``: the unknown area seen through the walls that at least half the samples draw (the mean completion's
   walls, as MapEx casts its rays): a wall one sample imagines alone does not hide what lies behind it;
 * ``open``: the unknown area weighted by the share of samples that call it free, seen through the SLAM map's known
-  walls only: the samples say how far the house goes, not where its unseen walls stand.
+  walls only: the samples say how far the house goes, not where its unseen walls stand;
+* ``free``: in each sample, the unknown cells that sample calls free, seen through its own walls: the floor a scan
+  would add, which is what exploration's coverage counts (its walls and the outside are not).
 
 Seen now or seen later is not the same for every cell: a *pocket* of a sample, unknown space that the sample's
 walls close off (a closet, a room behind a door), that one scan from the viewpoint would nearly finish needs no
@@ -133,8 +135,15 @@ def expected_gains(samples: NDArray[np.floating], partial: NDArray[np.floating],
     weighted cells it sees (:func:`cell_weights` through :func:`sample_walls`), plus the pockets it finishes
     (``finish_share``), averaged over the samples, mixed with the ``observed`` gain by ``sample_share``."""
     walls = sample_walls(samples, partial, config.gain)
-    weight = cell_weights(samples, partial, cell_area_m2, config.gain)
-    per_sample = visible_gains(walls, weight, origins_xy_cells, config.beams, range_cells)
+    if config.gain == "free":  # each sample weighs its own free cells
+        unknown = np.asarray(partial) == UNKNOWN
+        per_sample = np.concatenate([
+            visible_gains(walls[k : k + 1], (unknown & (np.asarray(samples[k]) == FREE)) * float(cell_area_m2),
+                          origins_xy_cells, config.beams, range_cells)
+            for k in range(len(walls))], axis=1).reshape(len(origins_xy_cells), len(walls))
+    else:
+        weight = cell_weights(samples, partial, cell_area_m2, config.gain)
+        per_sample = visible_gains(walls, weight, origins_xy_cells, config.beams, range_cells)
     if config.finish_share > 0:
         per_sample = per_sample + finished_pockets(samples, partial, origins_xy_cells, config.beams, range_cells,
                                                    cell_area_m2, config.finish_share)

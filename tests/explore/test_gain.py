@@ -5,9 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mcnkit.explore.config import GainConfig
 from mcnkit.explore.gain import (
     beyond_window_gains,
     cell_weights,
+    expected_gains,
     finished_pockets,
     sample_walls,
     trade_off,
@@ -128,6 +130,20 @@ def test_open_counts_the_house_the_samples_draw_but_not_their_inner_walls() -> N
     np.testing.assert_allclose(weight[:, [0, 5, 8]], np.tile([1.0, 0.5, 0.0], (10, 1)))  # share of samples free
     seen = visible_gains(walls, weight, np.array([[2.5, 5.5]]), 720, 30.0)[0, 0]
     assert seen == pytest.approx(10 * 7 + 10 * 0.5)  # columns 0-7 behind the one-sample wall; nothing outside
+
+
+def test_free_counts_the_floor_each_sample_draws_not_its_walls() -> None:
+    samples = np.full((2, 10, 10), FREE, np.float32)
+    samples[:, :, 8:] = OCCUPIED  # the house ends at column 8
+    samples[0, :, 5] = OCCUPIED  # one sample walls the room off at column 5
+    partial = np.full((10, 10), UNKNOWN, np.float32)
+    partial[:, :2] = FREE  # the robot's side is known already
+    origin = np.array([[1.5, 5.5]])
+    free = expected_gains(samples, partial, origin, GainConfig(gain="free", beams=720), 30.0, 1.0)[0]
+    # sample 0: columns 2-4 (its wall at 5 hides the rest), sample 1: columns 2-7; walls and outside count nothing
+    assert free == pytest.approx((10 * 3 + 10 * 6) / 2)
+    unknown = expected_gains(samples, partial, origin, GainConfig(gain="unknown", beams=720), 30.0, 1.0)[0]
+    assert unknown == pytest.approx((10 * 4 + 10 * 7) / 2)  # the unknown gain counts the wall cells it sees too
 
 
 def test_a_viewpoint_beyond_the_window_is_worth_the_unknown_it_would_see_there() -> None:
