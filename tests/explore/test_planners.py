@@ -184,3 +184,33 @@ def test_a_returned_goal_is_let_go_once_nothing_is_expected_there(release: bool,
     # the robot came back to this goal (keep_goal): kept against a better score, unless it promises nothing any more
     again = decide(view, _Fixed(0.0, gain_m2), config, 0.2, np.zeros((0, 2)), goal, keep_goal=True)
     assert again.kept is kept and again.choice == (1 if kept else 0)
+
+
+def test_the_gains_are_computed_on_whatever_completion_prediction_gives() -> None:
+    from mcnkit.explore.predict import Prediction, choose_window
+
+    angles = np.linspace(-np.pi, np.pi, 360, endpoint=False)
+    lineage = LineageMap(0.05, angles, np.zeros(3), max_range_m=7.99, usable_m=7.98, occ_thresh=0.25)
+    ranges = (3.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))).astype(np.float32)
+    ranges[np.abs(angles) < 0.1] = 6.0  # a door east: unknown space beside the passage
+    lineage.sync(np.zeros((1, 3)), [ranges])
+    view = planning_view(lineage, np.zeros(3), 0.05)
+    field = cost_field(view.image, view.grid, view.pose[:2], 0.2, 0.05)
+    cells = view.grid.world_to_cell(np.array([[4.0, 0.0]]))
+    points = Viewpoints(np.arange(1), cells, view.grid.cell_to_world(cells), field.cost_m[cells[:, 0], cells[:, 1]],
+                        np.ones(1, np.int64))
+
+    class Given(McnPlanner):
+        """A planner whose completion is fixed (as the benchmark's perfect predictor gives the true plan)."""
+
+        def __init__(self, fill: float) -> None:
+            super().__init__(None, GainConfig(gain="free"), 8.0, torch.Generator())  # type: ignore[arg-type]
+            self.fill = fill
+
+        def prediction(self, view: PlanningView) -> Prediction:
+            window = choose_window(view.lineage.seen_bounds_m(), self.config, 64, 0.05, view.pose[:2])
+            partial = view.lineage.pooled(window).astype(np.float32)
+            return Prediction(window, partial, np.where(partial == UNKNOWN, self.fill, partial)[None])
+
+    walled, open_ = (Given(fill).score(view, points, field)[0][0] for fill in (OCCUPIED, FREE))
+    assert walled == 0.0 < open_  # nothing to see where the completion walls the unknown off; floor where it is open
