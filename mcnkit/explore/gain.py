@@ -140,7 +140,7 @@ def expected_gains(samples: NDArray[np.floating], partial: NDArray[np.floating],
         per_sample = np.concatenate([
             visible_gains(walls[k : k + 1], (unknown & (np.asarray(samples[k]) == FREE)) * float(cell_area_m2),
                           origins_xy_cells, config.beams, range_cells)
-            for k in range(len(walls))], axis=1).reshape(len(origins_xy_cells), len(walls))
+            for k in range(len(walls))], axis=1)
     else:
         weight = cell_weights(samples, partial, cell_area_m2, config.gain)
         per_sample = visible_gains(walls, weight, origins_xy_cells, config.beams, range_cells)
