@@ -27,11 +27,13 @@ from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, TernaryMap
 
 __all__ = [
     "log_odds_to_ternary",
+    "map_window",
     "network_to_ternary",
     "pad_to_square",
     "pool_to_window",
     "probabilities_to_ternary",
     "resize_ternary",
+    "seen_window",
     "ternary_to_network",
     "unknown_mask",
 ]
@@ -119,6 +121,35 @@ def resize_ternary(image: NDArray[np.floating], size: int | tuple[int, int] = 64
     out_h, out_w = (size, size) if isinstance(size, int) else size
     ranks = _resize_axis(_resize_axis(_ranks(image), out_h, 0), out_w, 1)
     return _VALUE_OF_RANK[ranks]
+
+
+def map_window(bounds_m: tuple[float, float, float, float], size: int, margin_m: float = 0.0,
+               min_resolution_m: float = 0.0) -> GridSpec:
+    """The paper's window: the bounds ``(x0, y0, x1, y1)`` plus a margin, padded square (centred), on ``size``²
+    cells (at least ``min_resolution_m`` each: never finer than the map)."""
+    x0, y0, x1, y1 = bounds_m
+    side_m = max(x1 - x0, y1 - y0) + 2 * margin_m
+    res = max(side_m / size, min_resolution_m)
+    half = size * res / 2
+    return GridSpec(res, (x0 + x1) / 2 - half, (y0 + y1) / 2 - half, size, size)
+
+
+def seen_window(bounds_m: tuple[float, float, float, float], size: int, margin_m: float, min_side_m: float,
+                max_side_m: float, min_resolution_m: float = 0.0,
+                centre_xy_m: tuple[float, float] | None = None) -> GridSpec:
+    """The window an explorer completes while the building's extent is unknown: the seen bounds
+    ``(x0, y0, x1, y1)`` plus ``margin_m``, at least ``min_side_m`` wide, padded square on ``size``² cells (never
+    finer than ``min_resolution_m``); wider than ``max_side_m``: a square of that side centred on ``centre_xy_m``
+    (the robot; the bounds' centre without it).  Training pairs built on this window
+    (:class:`mcnkit.datasets.PairConfig` ``seen_window``) show a net the maps it completes while exploring."""
+    x0, y0, x1, y1 = bounds_m
+    extent = max(x1 - x0, y1 - y0)
+    margin = max(margin_m, (min_side_m - extent) / 2)
+    if extent + 2 * margin > max_side_m:
+        cx, cy = ((x0 + x1) / 2, (y0 + y1) / 2) if centre_xy_m is None else centre_xy_m
+        half = max_side_m / 2
+        return map_window((cx - half, cy - half, cx + half, cy + half), size, 0.0, min_resolution_m)
+    return map_window(bounds_m, size, margin, min_resolution_m)
 
 
 def pool_to_window(ternary: TernaryMap, window: GridSpec, outside: float = UNKNOWN) -> F32:

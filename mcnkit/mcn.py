@@ -43,7 +43,7 @@ from mcnkit.completion.registry import MODELS, CheckpointError, default_weights_
 from mcnkit.completion.sample import inference_net, label_entropy, sample_completions
 from mcnkit.completion.scores import miou_unknown, score_maps
 from mcnkit.geometry import compose
-from mcnkit.grid import network_to_ternary, pool_to_window, ternary_to_network
+from mcnkit.grid import map_window, network_to_ternary, pool_to_window, ternary_to_network
 from mcnkit.mcn_config import McnConfig
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.fastslam import FastSlam, SlamStep
@@ -68,17 +68,6 @@ def load_model(name_or_path: str | Path, device: str | torch.device = "cpu") -> 
                               "(NAME.safetensors + NAME.json)")
     net, _info = load_generator(path)
     return net.to(device).eval()
-
-
-def map_window(bounds_m: tuple[float, float, float, float], size: int, margin_m: float = 0.0,
-               min_resolution_m: float = 0.0) -> GridSpec:
-    """The paper's window: the bounds ``(x0, y0, x1, y1)`` plus a margin, padded square (centred), on ``size``²
-    cells (at least ``min_resolution_m`` each: never finer than the map)."""
-    x0, y0, x1, y1 = bounds_m
-    side_m = max(x1 - x0, y1 - y0) + 2 * margin_m
-    res = max(side_m / size, min_resolution_m)
-    half = size * res / 2
-    return GridSpec(res, (x0 + x1) / 2 - half, (y0 + y1) / 2 - half, size, size)
 
 
 def robot_window(xy_m: F64, size: int, window_m: float) -> GridSpec:

@@ -1,7 +1,8 @@
 """What the sampled completions look like: test maps, their truth and K samples side by side.
 
 For the first ``--maps`` test pairs of ``--domain`` (default ``houseexpo``: Experiment 1's, one 180°, 2 m scan;
-``houseexpo-explore``: the maps part-way through an exploration that the ``*-explore`` nets complete) one row
+``houseexpo-explore``: the maps part-way through an exploration that the ``*-explore`` nets complete;
+``houseexpo-seen``: the same maps on the window ``mcnkit explore`` completes) one row
 each: m_t, the true map m_T, ``--show`` of the K samples a shipped net draws
 (``mcnkit.completion.sample.sample_completions``, seeded) and the per-cell frequency of "free" over all K
 (white: every sample free, black: none; grey where they disagree).
@@ -36,7 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", default="sampler", choices=list(MODELS), help="the shipped net that draws the samples")
     ap.add_argument("--domain", default="houseexpo", choices=DOMAINS,
-                    help="whose test pairs: houseexpo (Experiment 1's, default), houseexpo-explore or procedural")
+                    help="whose test pairs: houseexpo (Experiment 1's, default), houseexpo-explore, houseexpo-seen (on the "
+                         "explorer's window) or procedural")
     ap.add_argument("--maps", type=int, default=10, help="test pairs shown, the first of the domain's (default 10)")
     ap.add_argument("--k", type=int, default=16, help="samples drawn per map, for the frequency column (default 16)")
     ap.add_argument("--show", type=int, default=5, help="samples shown per map (default 5)")

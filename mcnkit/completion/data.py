@@ -2,7 +2,8 @@
 
 Domains: ``houseexpo`` (the cached Pseudo-SLAM pairs of :mod:`mcnkit.datasets.pairs`, default cache
 ``<data>/cache/houseexpo-<n_train>``), ``houseexpo-explore`` (the same plans, m_t after 1–12 scans of a 360° 8 m
-lidar from poses a robot could have reached: the maps MCN-SLAM completes during a run) and ``procedural`` (procedural apartments with HOME'S masking, built in
+lidar from poses a robot could have reached: the maps MCN-SLAM completes during a run), ``houseexpo-seen`` (those
+maps on the window an explorer completes, the seen part plus 2 m, where the plan's bounding box is unknown) and ``procedural`` (procedural apartments with HOME'S masking, built in
 memory).  Augmentation draws one of the 8 symmetries of the square per pair (flip left-right, flip up-down,
 transpose; or flips only), the same for m_t and m_T, from an injected :class:`torch.Generator`.
 """
@@ -35,6 +36,9 @@ _HOUSEEXPO_DOMAINS: dict[str, dict[str, Any]] = {
     "houseexpo": {},  # the paper's pairs: one 180°, 2 m Pseudo-SLAM scan
     # m_t = 1..12 scans of a 360°, 8 m lidar (Experiment 2's robot)
     "houseexpo-explore": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12},
+    # the same m_t, both maps on the window mcnkit explore completes (GainConfig's window_margin_m, _min_m, _max_m)
+    "houseexpo-seen": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12,
+                       "seen_window": (2.0, 8.0, 30.0)},
 }
 """HouseExpo domains: how each one's :class:`~mcnkit.datasets.PairConfig` differs from the paper's."""
 if DOMAINS != (*_HOUSEEXPO_DOMAINS, "procedural"):  # the names the command line offers are the ones built here

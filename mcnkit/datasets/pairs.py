@@ -39,9 +39,9 @@ from mcnkit.datasets.floorplans import (
     rasterize_apartment,
 )
 from mcnkit.datasets.houseexpo import FloorPlan, SkipLog, iter_plans, rasterize_plan, read_split, sha256_of
-from mcnkit.datasets.pseudoslam import PseudoSlamConfig, exploration, free_to_ternary
-from mcnkit.grid import pad_to_square, resize_ternary
-from mcnkit.types import FREE, OCCUPIED, UNKNOWN
+from mcnkit.datasets.pseudoslam import PseudoSlamConfig, PseudoSlamObservation, exploration, free_to_ternary
+from mcnkit.grid import pad_to_square, pool_to_window, resize_ternary, seen_window
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, TernaryMap
 
 __all__ = [
     "CACHE_VERSION",
@@ -80,6 +80,11 @@ class PairConfig:
     max_scans: int = 1
     """m_t = the union of ``n`` scans, ``n`` uniform in ``1..max_scans`` (:func:`~mcnkit.datasets.pseudoslam.exploration`);
     1 = the paper's first iteration."""
+    seen_window: tuple[float, float, float] | None = None
+    """``(margin_m, min_side_m, max_side_m)``: both maps on the window an explorer completes
+    (:func:`mcnkit.grid.seen_window`: the part m_t has seen plus the margin, centred on the last scan's pose
+    when wider than ``max_side_m``; m_T outside the plan occupied) instead of the plan's bounding box, so the net
+    learns that the house may end anywhere in the frame or go on past it.  None: the paper's frame."""
 
 
 @dataclass(frozen=True)
@@ -151,12 +156,27 @@ def houseexpo_pair(plan: FloorPlan, config: PairConfig) -> tuple[F32, F32]:
     n_scans = int(rng.integers(1, config.max_scans + 1)) if config.max_scans > 1 else 1
     obs = exploration(free, ps, n_scans, rng)
     observed, truth = obs.observed, obs.ground_truth
+    if config.seen_window is not None:
+        return _on_seen_window(obs, 1.0 / ps.px_per_m, config.size, config.seen_window)
     b = ps.border_px
     if config.crop_to_plan and b > 0 and min(free.shape) > 2 * b:
         observed, truth = observed[b:-b, b:-b], truth[b:-b, b:-b]
     m_t = resize_ternary(pad_to_square(observed, UNKNOWN), config.size)
     m_T = resize_ternary(pad_to_square(truth, OCCUPIED), config.size)
     return m_t, m_T
+
+
+def _on_seen_window(obs: PseudoSlamObservation, res_m: float, size: int,
+                    window: tuple[float, float, float]) -> tuple[F32, F32]:
+    """(m_t, m_T) pooled onto :func:`~mcnkit.grid.seen_window` of m_t's seen cells (rows of the raster are y)."""
+    spec = GridSpec(res_m, 0.0, 0.0, obs.observed.shape[1], obs.observed.shape[0])
+    rows, cols = np.nonzero(obs.observed != UNKNOWN)
+    bounds = (cols.min() * res_m, rows.min() * res_m, (cols.max() + 1) * res_m, (rows.max() + 1) * res_m)
+    row, col, _ = obs.last_pose_px or obs.pose_px
+    grid = seen_window(bounds, size, *window, min_resolution_m=res_m,
+                       centre_xy_m=((col + 0.5) * res_m, (row + 0.5) * res_m))
+    return (pool_to_window(TernaryMap(obs.observed, spec), grid, outside=UNKNOWN),
+            pool_to_window(TernaryMap(obs.ground_truth, spec), grid, outside=OCCUPIED))
 
 
 def _stack(items: list[tuple[str, F32, F32]], size: int) -> PairSet:
@@ -223,6 +243,8 @@ def _key(source: Path, train_list: Path, test_list: Path, cfg: PairConfig) -> di
     config = dataclasses.asdict(cfg)
     if cfg.max_scans == 1:
         del config["max_scans"]  # caches of the paper's pairs built before the option existed stay valid
+    if cfg.seen_window is None:
+        del config["seen_window"]  # likewise every cache built before this option
     return {
         "version": CACHE_VERSION,
         "source_sha256": sha256_of(source),

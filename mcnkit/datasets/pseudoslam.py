@@ -99,6 +99,8 @@ class PseudoSlamObservation:
     ground_truth: F32
     observed: F32
     pose_px: tuple[float, float, float]
+    last_pose_px: tuple[float, float, float] | None = None
+    """The last scan's pose, where the robot is now (None: ``pose_px``, the only scan)."""
 
 
 def free_to_ternary(free: BoolArray) -> F32:
@@ -173,12 +175,13 @@ def exploration(
     """m_t after ``n_scans`` scans: the first from :func:`random_start_pose`, each next one from a pixel drawn
     uniformly among the safe pixels (robot disc clear of obstacles) that the scans so far observed free — where a
     robot that drives only through known free space can be — with a uniform heading.  ``pose_px`` is the first
-    pose.  ``n_scans = 1`` is the paper's :func:`first_iteration`.
+    pose, ``last_pose_px`` the last.  ``n_scans = 1`` is the paper's :func:`first_iteration`.
     """
     if n_scans < 1:
         raise ValueError(f"n_scans must be at least 1, got {n_scans}")
     first = random_start_pose(free, config, rng)
     observed = pseudo_slam_scan(free, first, config)
+    pose = first
     if n_scans > 1:
         safe = ndimage.distance_transform_edt(free) > config.robot_radius_px
         for _ in range(n_scans - 1):
@@ -190,4 +193,4 @@ def exploration(
             scan = pseudo_slam_scan(free, pose, config)
             seen = scan != UNKNOWN
             observed[seen] = scan[seen]
-    return PseudoSlamObservation(free_to_ternary(free), observed, first)
+    return PseudoSlamObservation(free_to_ternary(free), observed, first, pose)

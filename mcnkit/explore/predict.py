@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from mcnkit.completion.nets import CompletionNet
 from mcnkit.completion.sample import sample_completions
 from mcnkit.explore.config import GainConfig
-from mcnkit.mcn import map_window
+from mcnkit.grid import seen_window
 from mcnkit.slam.lineage import LineageMap
 from mcnkit.types import OCCUPIED, UNKNOWN, GridSpec
 
@@ -62,15 +62,8 @@ def choose_window(bounds_m: tuple[float, float, float, float], config: GainConfi
     """The seen bounds ``(x0, y0, x1, y1)`` plus ``window_margin_m``, at least ``window_min_m`` wide, padded square
     on ``size``² cells (never finer than ``min_resolution_m``); wider than ``window_max_m``: a square of that side
     centred on ``robot_xy_m`` (on the bounds' centre without it)."""
-    x0, y0, x1, y1 = bounds_m
-    extent = max(x1 - x0, y1 - y0)
-    margin = max(config.window_margin_m, (config.window_min_m - extent) / 2)
-    if extent + 2 * margin > config.window_max_m:
-        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2]) if robot_xy_m is None else np.asarray(robot_xy_m)
-        half = config.window_max_m / 2
-        return map_window((centre[0] - half, centre[1] - half, centre[0] + half, centre[1] + half), size, 0.0,
-                          min_resolution_m)
-    return map_window(bounds_m, size, margin, min_resolution_m)
+    return seen_window(bounds_m, size, config.window_margin_m, config.window_min_m, config.window_max_m,
+                       min_resolution_m, None if robot_xy_m is None else (float(robot_xy_m[0]), float(robot_xy_m[1])))
 
 
 def complete_on(net: CompletionNet, partial: F32, k: int, generator: torch.Generator) -> tuple[F32, F32]:

@@ -69,3 +69,11 @@ def test_ddp_two_gloo_processes_two_steps(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr[-2000:]
     info = json.loads((tmp_path / "last.json").read_text())["info"]
     assert info["steps"] == 2  # two optimizer steps, each over the two ranks' shards
+
+
+def test_the_seen_domain_frames_pairs_as_the_explorer_frames_its_maps() -> None:
+    from mcnkit.completion.data import _HOUSEEXPO_DOMAINS
+    from mcnkit.explore.config import GainConfig
+
+    g = GainConfig()
+    assert _HOUSEEXPO_DOMAINS["houseexpo-seen"]["seen_window"] == (g.window_margin_m, g.window_min_m, g.window_max_m)

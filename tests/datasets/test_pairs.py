@@ -112,3 +112,25 @@ def test_exploration_pairs_see_more_and_keep_the_paper_cache_key(shared_data: Pa
     key = json.loads((tmp_path / "a" / "houseexpo-pairs.manifest.json").read_text())["key"]
     assert "max_scans" not in key["config"]
     assert json.loads((tmp_path / "b" / "houseexpo-pairs.manifest.json").read_text())["key"]["config"]["max_scans"] == 12
+
+
+def test_seen_window_pairs_frame_what_the_robot_has_seen(shared_data: Path, tmp_path: Path) -> None:
+    archive = shared_data / "houseexpo" / "json.tar.gz"
+    lidar = PseudoSlamConfig(range_m=8.0, fov_deg=360.0)
+    plan_box = PairConfig(40, 5, 5, pseudoslam=lidar, max_scans=12)
+    seen = PairConfig(40, 5, 5, pseudoslam=lidar, max_scans=12, seen_window=(2.0, 8.0, 30.0))
+    boxed, _ = load_or_build_houseexpo_pairs(archive, tmp_path / "a", plan_box, progress=False)
+    framed, _ = load_or_build_houseexpo_pairs(archive, tmp_path / "b", seen, progress=False)
+    assert framed.train.ids == boxed.train.ids  # the same plans and scans, another frame
+    m_t, m_T = framed.train.partial, framed.train.target
+    # The seen part plus 2 m: no map touches the frame's edge with a seen cell (unless wider than 30 m) ...
+    edge = np.concatenate([m_t[:, 0], m_t[:, -1], m_t[:, :, 0], m_t[:, :, -1]], axis=1)
+    assert np.mean(np.all(edge == UNKNOWN, axis=1)) > 0.8
+    # ... and the plan no longer fills the frame: more exterior, and part of the house lies outside it.
+    assert pair_stats(framed.train).free_fraction < pair_stats(boxed.train).free_fraction
+    assert np.all(m_T[m_t == OCCUPIED] == OCCUPIED) and not np.any(m_T == UNKNOWN)
+    # Caches built before the option keep their key.
+    key = json.loads((tmp_path / "a" / "houseexpo-pairs.manifest.json").read_text())["key"]
+    assert "seen_window" not in key["config"]
+    assert json.loads((tmp_path / "b" / "houseexpo-pairs.manifest.json").read_text())["key"]["config"]["seen_window"] == [
+        2.0, 8.0, 30.0]
