@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.common import RESULTS, data_dir
+from mcnkit.app.commands.explore import DEFAULT_MODEL
 
 GRID_STEP_M = 0.5
 """Spacing of the path lengths at which every run's coverage curve is kept (for the mean curves)."""
@@ -328,8 +329,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--houses", type=int, default=50, help="HouseExpo test houses (Experiment 2's, first N)")
     ap.add_argument("--procedural", type=int, default=20, help="procedural apartments (seeds 1..N)")
-    ap.add_argument("--model", default="sampler-explore",
-                    help=f"completion model (name or checkpoint path); '{TRUTH}': the true plan, a perfect predictor")
+    ap.add_argument("--model", default=DEFAULT_MODEL,
+                    help=f"completion model (name or checkpoint path; default {DEFAULT_MODEL}); '{TRUTH}': the true plan, a "
+                         "perfect predictor")
     ap.add_argument("--stop-coverage", type=float, default=0.95, help="end a run at this coverage")
     ap.add_argument("--budget-m", type=float, default=120.0, help="path budget of a run [m]")
     ap.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes)")

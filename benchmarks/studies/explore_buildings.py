@@ -6,7 +6,7 @@ walls as a lidar saw them.  This study gives each building of ``../shared/data/r
 Intel, MIT CSAIL; not the outdoor Freiburg campus) to both planners as a floor plan: the map of ``mcnkit slam LOG
 --particles 30 --resolution 0.05 --seed 0`` (made once into ``--maps``, reused when there), whose free cells are the
 plan (its unknown grey is not free, so the plan is what the real robot saw).  Every (building, seed, planner) runs as
-``bench_explore`` runs a house (same simulator, SLAM, stopping rule, ``mcn`` with ``sampler-explore`` at its default K samples) with a
+``bench_explore`` runs a house (same simulator, SLAM, stopping rule, ``mcn`` with ``mcnkit explore``'s default model at its default K samples) with a
 larger path budget.
 
 Reported per building and seed: the path to 50 / 80 / 90 % coverage of the reachable free space and the coverage at
@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.bench_explore import GRID_STEP_M, Task, paired, run_task
+from benchmarks.bench_explore import DEFAULT_MODEL, GRID_STEP_M, Task, paired, run_task
 from benchmarks.common import BUILDINGS, RESULTS, SLAM_ENV, data_dir, slam_command
 
 INDOOR = [name for name in BUILDINGS if name != "campus"]
@@ -160,7 +160,7 @@ def add_run_options(ap: argparse.ArgumentParser, seeds: list[int], report: str) 
                                                                         f"(default {' '.join(map(str, seeds))})")
     ap.add_argument("--budget-m", type=float, default=300.0, help="path budget of a run [m] (default 300)")
     ap.add_argument("--stop-coverage", type=float, default=0.95, help="end a run at this coverage (default 0.95)")
-    ap.add_argument("--model", default="sampler-explore", help="completion model of mcn (default sampler-explore)")
+    ap.add_argument("--model", default=DEFAULT_MODEL, help=f"completion model of mcn (default {DEFAULT_MODEL})")
     ap.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes; default 1)")
     ap.add_argument("--out", type=Path, default=RESULTS / report,
                     help=f"the JSON report; the table (.md) and plot (.png) go beside it (default "

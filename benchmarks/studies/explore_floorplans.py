@@ -6,7 +6,7 @@ background with the outside white too).  This study gives each of them to both p
 image:FILE`` would: the array written as a PNG with a map_server YAML (0.1 m per pixel) into ``--maps``, the light
 space outside the building's walls left out (:func:`mcnkit.datasets.images.outside_walls`).  Every (plan, seed,
 planner) runs as ``bench_explore`` runs a house (same simulator, SLAM, stopping rule, ``mcn`` with
-``sampler-explore`` at its default K samples) with a larger path budget; the report is that of ``explore_buildings`` (the path to 50 / 80 /
+``mcnkit explore``'s default model at its default K samples) with a larger path budget; the report is that of ``explore_buildings`` (the path to 50 / 80 /
 90 % coverage, the coverage at 100 / 200 / 300 m, the paired saving where both reached 90 %).  Writes
 ``explore_floorplans.json``, ``.md`` and ``.png`` into ``benchmarks/results/``; every run also goes to
 ``runs.jsonl`` in ``--maps`` as it ends.  The plans are not in the shared data; a snapshot of the MapEx repository

@@ -20,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from mcnkit.app.commands.explore import DEFAULT_MODEL
+
 
 def run(spec: str, seed: int, gain: str | None, stop_coverage: float, model: str) -> dict[str, Any]:
     """One exploration: ``gain`` None is the frontier planner.  The true path, the goals (where, at what path
@@ -58,7 +60,7 @@ def main() -> None:
     ap.add_argument("--gains", nargs="+", default=["unknown", "observed"],
                     help="mcn gain kinds to draw beside the frontier planner (default: unknown observed)")
     ap.add_argument("--stop-coverage", type=float, default=0.9, help="end each run at this coverage (default 0.9)")
-    ap.add_argument("--model", default="sampler-explore", help="completion model (default sampler-explore)")
+    ap.add_argument("--model", default=DEFAULT_MODEL, help=f"completion model (default {DEFAULT_MODEL})")
     ap.add_argument("--png", type=Path, required=True, help="the figure to write")
     args = ap.parse_args()
     import matplotlib

@@ -29,7 +29,7 @@ HOUSE = "procedural:2" if CI else "houseexpo:056774dc61f48c427d95a6f5ac84f753"  
 SEED = 0                        # start pose and noise: the same for both planners
 BUDGET_M = 10.0 if CI else 120.0
 SAMPLES = 2 if CI else 8        # K completions per planning step
-MODEL = "sampler-explore"       # falls back to unet-explore when the sampler is not installed
+MODEL = "sampler-seen"          # falls back to unet-explore when the sampler is not installed
 RRD = None if CI else "../recordings/notebook_08"  # notebook_08_frontier.rrd, notebook_08_mcn.rrd
 VIEWER = not CI                 # the embedded Rerun viewer needs a browser front end"""),
 code("""import numpy as np
