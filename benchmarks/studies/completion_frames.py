@@ -8,7 +8,8 @@ Every net completes the same 1,000 test pairs in both frames (same plans, same s
 deterministic F (free) and mIoU of the unknown cells, and K = 8 samples of the first 100 (spread/error, ECE, F of
 one sample and of the majority).
 
-Writes ``benchmarks/results/completion_frames.json`` and ``.md``.
+Writes ``benchmarks/results/completion_frames.json`` and ``.md``.  The first run builds both pair caches under
+``data/cache`` (HouseExpo installed or in the shared data; about 5 min each on 2 cores).
 
     .venv/bin/python -m benchmarks.studies.completion_frames [--models sampler-explore sampler-seen ...] [--threads 2]
 """
@@ -51,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     torch.set_num_threads(args.threads)
     tests = {label: load_domain_pairs(d, 22000, 200, 1000, seed=0).test for label, d in FRAMES.items()}
-    if [t.ids for t in tests.values()].count(next(iter(tests.values())).ids) != len(tests):
+    if len({t.ids for t in tests.values()}) != 1:
         raise SystemExit("the frames' test pairs are not the same plans: rebuild the caches")
     rows: list[dict[str, Any]] = []
     for name in args.models:
