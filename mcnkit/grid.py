@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, TernaryMap
 
 __all__ = [
+    "SEEN_WINDOW_M",
     "log_odds_to_ternary",
     "map_window",
     "network_to_ternary",
@@ -132,6 +133,11 @@ def map_window(bounds_m: tuple[float, float, float, float], size: int, margin_m:
     res = max(side_m / size, min_resolution_m)
     half = size * res / 2
     return GridSpec(res, (x0 + x1) / 2 - half, (y0 + y1) / 2 - half, size, size)
+
+
+SEEN_WINDOW_M: tuple[float, float, float] = (2.0, 8.0, 30.0)
+"""The explorer's window by default, ``(margin_m, min_side_m, max_side_m)`` of :func:`seen_window`: the defaults of
+``mcnkit explore`` (:class:`mcnkit.explore.config.GainConfig`) and the frame of the ``houseexpo-seen`` pairs."""
 
 
 def seen_window(bounds_m: tuple[float, float, float, float], size: int, margin_m: float, min_side_m: float,

@@ -28,7 +28,7 @@ from mcnkit.datasets import (
     procedural_pairs,
 )
 from mcnkit.datasets.houseexpo import default_data_dir, houseexpo_source
-from mcnkit.grid import ternary_to_network
+from mcnkit.grid import SEEN_WINDOW_M, ternary_to_network
 
 __all__ = ["DOMAINS", "augment_dihedral", "encode", "load_domain_pairs"]
 
@@ -36,9 +36,9 @@ _HOUSEEXPO_DOMAINS: dict[str, dict[str, Any]] = {
     "houseexpo": {},  # the paper's pairs: one 180°, 2 m Pseudo-SLAM scan
     # m_t = 1..12 scans of a 360°, 8 m lidar (Experiment 2's robot)
     "houseexpo-explore": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12},
-    # the same m_t, both maps on the window mcnkit explore completes (GainConfig's window_margin_m, _min_m, _max_m)
+    # the same m_t, both maps on the window mcnkit explore completes
     "houseexpo-seen": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12,
-                       "seen_window": (2.0, 8.0, 30.0)},
+                       "seen_window": SEEN_WINDOW_M},
 }
 """HouseExpo domains: how each one's :class:`~mcnkit.datasets.PairConfig` differs from the paper's."""
 if DOMAINS != (*_HOUSEEXPO_DOMAINS, "procedural"):  # the names the command line offers are the ones built here

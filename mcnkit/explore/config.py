@@ -7,6 +7,8 @@ import math
 from dataclasses import dataclass
 from typing import Literal, get_args
 
+from mcnkit.grid import SEEN_WINDOW_M
+
 __all__ = ["PLANNERS", "ExploreConfig", "GainConfig", "GainKind", "PlannerName", "TradeOff"]
 
 PlannerName = Literal["frontier", "mcn"]
@@ -134,12 +136,12 @@ class GainConfig:
     are chosen before any farther one (among themselves by the trade-off): what lies beside the robot is finished
     before it leaves for a larger but farther view, the local-then-global order of hierarchical explorers (TARE), so
     no room next to the robot is left for a trip back.  0: the trade-off alone decides [m]."""
-    window_margin_m: float = 2.0
-    """The network's window: the SLAM map's seen bounds plus this margin, padded square (the nets were trained on
-    whole houses filling the window; the margin leaves room for the part not seen yet) [m]."""
-    window_min_m: float = 8.0
+    window_margin_m: float = SEEN_WINDOW_M[0]
+    """The network's window: the SLAM map's seen bounds plus this margin, padded square (room for the part not seen
+    yet; :func:`mcnkit.grid.seen_window`, the frame the ``sampler-seen`` nets were trained on) [m]."""
+    window_min_m: float = SEEN_WINDOW_M[1]
     """The window's side is at least this (early maps are small) [m]."""
-    window_max_m: float = 30.0
+    window_max_m: float = SEEN_WINDOW_M[2]
     """A map whose window would be wider than this (a building, not a house) is completed on a window of this side
     centred on the robot instead [m]."""
     beams: int = 180

@@ -117,8 +117,11 @@ def sample_walls(samples: NDArray[np.floating], partial: NDArray[np.floating], k
 
 def cell_weights(samples: NDArray[np.floating], partial: NDArray[np.floating], cell_area_m2: float,
                  kind: str) -> F64:
-    """What seeing each cell (H, W) is worth (see the module docstring) [m²]."""
+    """What seeing each cell (H, W) is worth (see the module docstring) [m²]; for ``free`` one map per sample
+    (K, H, W), each sample's own free cells."""
     unknown = np.asarray(partial) == UNKNOWN
+    if kind == "free":
+        return (unknown & (np.asarray(samples) == FREE)) * float(cell_area_m2)
     if kind in ("unknown", "observed", "consensus"):
         return unknown * float(cell_area_m2)
     if kind == "open":
@@ -135,14 +138,11 @@ def expected_gains(samples: NDArray[np.floating], partial: NDArray[np.floating],
     weighted cells it sees (:func:`cell_weights` through :func:`sample_walls`), plus the pockets it finishes
     (``finish_share``), averaged over the samples, mixed with the ``observed`` gain by ``sample_share``."""
     walls = sample_walls(samples, partial, config.gain)
-    if config.gain == "free":  # each sample weighs its own free cells
-        unknown = np.asarray(partial) == UNKNOWN
-        per_sample = np.concatenate([
-            visible_gains(walls[k : k + 1], (unknown & (np.asarray(samples[k]) == FREE)) * float(cell_area_m2),
-                          origins_xy_cells, config.beams, range_cells)
-            for k in range(len(walls))], axis=1)
+    weight = cell_weights(samples, partial, cell_area_m2, config.gain)
+    if weight.ndim == 3:  # a weight per sample: each sample's cells seen through its own walls
+        per_sample = np.concatenate([visible_gains(walls[k : k + 1], weight[k], origins_xy_cells, config.beams,
+                                                   range_cells) for k in range(len(walls))], axis=1)
     else:
-        weight = cell_weights(samples, partial, cell_area_m2, config.gain)
         per_sample = visible_gains(walls, weight, origins_xy_cells, config.beams, range_cells)
     if config.finish_share > 0:
         per_sample = per_sample + finished_pockets(samples, partial, origins_xy_cells, config.beams, range_cells,
