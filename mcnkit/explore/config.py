@@ -138,7 +138,7 @@ class GainConfig:
     no room next to the robot is left for a trip back.  0: the trade-off alone decides [m]."""
     window_margin_m: float = SEEN_WINDOW_M[0]
     """The network's window: the SLAM map's seen bounds plus this margin, padded square (room for the part not seen
-    yet; :func:`mcnkit.grid.seen_window`, the frame the ``sampler-seen`` nets were trained on) [m]."""
+    yet; the frame the ``sampler-seen`` nets were trained on) [m]."""
     window_min_m: float = SEEN_WINDOW_M[1]
     """The window's side is at least this (early maps are small) [m]."""
     window_max_m: float = SEEN_WINDOW_M[2]
