@@ -41,7 +41,8 @@ def test_non_finite_weights_are_refused_at_load(tmp_path: Path, value: float) ->
 
 
 def test_an_unknown_model_name_says_what_exists(tmp_path: Path) -> None:
-    with pytest.raises(CheckpointError, match=r"neither a shipped model \(sampler, sampler-explore, sampler-explore-large, sampler-seen, sampler-seen-large, unet, unet-explore"):
+    with pytest.raises(CheckpointError, match=r"neither a shipped model \(sampler, sampler-explore, sampler-explore-large, sampler-seen, sampler-seen-large, "
+                       r"sampler-seen-wide, unet, unet-explore"):
         load_model(str(tmp_path / "nothing"))
 
 

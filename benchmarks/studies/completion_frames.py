@@ -6,7 +6,9 @@ completes the seen part plus 2 m (:func:`mcnkit.grid.seen_window`): the house ma
 on past it. The ``*-seen`` samplers learnt on the same plans and scans framed that way (domain ``houseexpo-seen``).
 Every net completes the same 1,000 test pairs in both frames (same plans, same scans: only the frame differs):
 deterministic F (free) and mIoU of the unknown cells, and K = 8 samples of the first 100 (spread/error, ECE, F of
-one sample and of the majority).
+one sample and of the majority).  A third set holds the frame of a building wider than the window (30 m): the
+test pairs of ``houseexpo-seen-wide`` whose seen cells reach the frame's edge, which happens only when the window is
+the square around the robot (the seen part plus its margin never reaches the edge).
 
 Writes ``benchmarks/results/completion_frames.json`` and ``.md``.  The first run builds both pair caches under
 ``data/cache`` (HouseExpo installed or in the shared data; about 5 min each on 2 cores).
@@ -22,6 +24,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from benchmarks.common import RESULTS
@@ -32,13 +35,24 @@ from mcnkit.completion.sample import complete, sample_completions
 from mcnkit.completion.scores import score_maps
 from mcnkit.datasets import PairSet
 from mcnkit.mcn import load_model
+from mcnkit.types import UNKNOWN
 
 FRAMES = {"plan's box (houseexpo-explore)": "houseexpo-explore", "explorer's window (houseexpo-seen)": "houseexpo-seen"}
 """The two framings of the same test pairs, by the domain that builds them."""
+AROUND_ROBOT = "square around the robot (houseexpo-seen-wide)"
+"""The label of the pairs framed around the robot, seen farther than the window reaches."""
 
 
 def _first(ps: PairSet, n: int) -> PairSet:
     return PairSet(ps.partial[:n], ps.target[:n], ps.ids[:n])
+
+
+def around_robot(ps: PairSet) -> PairSet:
+    """The pairs whose m_t has a seen cell on the frame's edge: framed by the square around the robot."""
+    m = ps.partial
+    edge = np.concatenate([m[:, 0], m[:, -1], m[:, :, 0], m[:, :, -1]], axis=1)
+    keep = np.flatnonzero(np.any(edge != UNKNOWN, axis=1))
+    return PairSet(m[keep], ps.target[keep], tuple(ps.ids[k] for k in keep))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -54,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     tests = {label: load_domain_pairs(d, 22000, 200, 1000, seed=0).test for label, d in FRAMES.items()}
     if len({t.ids for t in tests.values()}) != 1:
         raise SystemExit("the frames' test pairs are not the same plans: rebuild the caches")
+    tests[AROUND_ROBOT] = around_robot(load_domain_pairs("houseexpo-seen-wide", 22000, 200, 1000, seed=0).test)
     rows: list[dict[str, Any]] = []
     for name in args.models:
         net = load_model(name)
@@ -71,10 +86,11 @@ def main(argv: list[str] | None = None) -> int:
                   f"spread/error {row['spread_over_error']:.2f}  ECE {row['ece']:.3f}  "
                   f"F one {row['f_single']:.3f} majority {row['f_majority']:.3f}", flush=True)
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps({"rows": rows, "command": "python -m benchmarks.studies.completion_frames"}, indent=2))
-    lines = ["| net | test pairs framed by | F free | mIoU unknown | spread/error | ECE | F one sample | F majority of 8 |",
-             "|---|---|---|---|---|---|---|---|"]
-    lines += [f"| `{r['model']}` | {r['frame']} | {r['f_free']:.3f} | {r['miou_unknown']:.3f} | "
+    command = "python -m benchmarks.studies.completion_frames --models " + " ".join(args.models)
+    args.json.write_text(json.dumps({"rows": rows, "command": command}, indent=2))
+    lines = [f"`{command}`", "", "| net | test pairs framed by | pairs | F free | mIoU unknown | spread/error | ECE | F one sample | F majority of 8 |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    lines += [f"| `{r['model']}` | {r['frame']} | {r['pairs']} | {r['f_free']:.3f} | {r['miou_unknown']:.3f} | "
               f"{r['spread_over_error']:.2f} | {r['ece']:.3f} | {r['f_single']:.3f} | {r['f_majority']:.3f} |"
               for r in rows]
     args.json.with_suffix(".md").write_text("\n".join(lines) + "\n")

@@ -3,8 +3,10 @@
 Domains: ``houseexpo`` (the cached Pseudo-SLAM pairs of :mod:`mcnkit.datasets.pairs`, default cache
 ``<data>/cache/houseexpo-<n_train>``), ``houseexpo-explore`` (the same plans, m_t after 1–12 scans of a 360° 8 m
 lidar from poses a robot could have reached: the maps MCN-SLAM completes during a run), ``houseexpo-seen`` (those
-maps on the window an explorer completes, the seen part plus 2 m, where the plan's bounding box is unknown) and ``procedural`` (procedural apartments with HOME'S masking, built in
-memory).  Augmentation draws one of the 8 symmetries of the square per pair (flip left-right, flip up-down,
+maps on the window an explorer completes, the seen part plus 2 m, where the plan's bounding box is unknown),
+``houseexpo-seen-wide`` (the same, with more pairs from plans wider than that window, seen far enough to be framed
+around the robot) and ``procedural`` (procedural apartments with HOME'S masking, built in memory); each HouseExpo
+domain's :class:`~mcnkit.datasets.PairConfig` is in :data:`mcnkit.datasets.pairs.HOUSEEXPO_DOMAINS`.  Augmentation draws one of the 8 symmetries of the square per pair (flip left-right, flip up-down,
 transpose; or flips only), the same for m_t and m_T, from an injected :class:`torch.Generator`.
 """
 
@@ -12,36 +14,20 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
 
 from mcnkit.completion.registry import DOMAINS
-from mcnkit.datasets import (
-    PairConfig,
-    PairSet,
-    PairSplits,
-    PseudoSlamConfig,
-    load_or_build_houseexpo_pairs,
-    procedural_pairs,
-)
+from mcnkit.datasets import PairSet, PairSplits, load_or_build_houseexpo_pairs, procedural_pairs
 from mcnkit.datasets.houseexpo import default_data_dir, houseexpo_source
-from mcnkit.grid import SEEN_WINDOW_M, ternary_to_network
+from mcnkit.datasets.pairs import HOUSEEXPO_DOMAINS, domain_pair_config
+from mcnkit.grid import ternary_to_network
 
 __all__ = ["DOMAINS", "augment_dihedral", "encode", "load_domain_pairs"]
 
-_HOUSEEXPO_DOMAINS: dict[str, dict[str, Any]] = {
-    "houseexpo": {},  # the paper's pairs: one 180°, 2 m Pseudo-SLAM scan
-    # m_t = 1..12 scans of a 360°, 8 m lidar (Experiment 2's robot)
-    "houseexpo-explore": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12},
-    # the same m_t, both maps on the window mcnkit explore completes
-    "houseexpo-seen": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12,
-                       "seen_window": SEEN_WINDOW_M},
-}
-"""HouseExpo domains: how each one's :class:`~mcnkit.datasets.PairConfig` differs from the paper's."""
-if DOMAINS != (*_HOUSEEXPO_DOMAINS, "procedural"):  # the names the command line offers are the ones built here
+if DOMAINS != (*HOUSEEXPO_DOMAINS, "procedural"):  # the names the command line offers are the ones built here
     raise ImportError(f"mcnkit.completion.registry.DOMAINS {DOMAINS} differs from the domains of {__name__}")
 
 
@@ -58,13 +44,13 @@ def load_domain_pairs(
     """Train/val/test pairs of ``domain``; HouseExpo from ``houseexpo`` (default: installed, then ../shared/data)."""
     if domain == "procedural":
         return procedural_pairs(n_train, n_val, n_test, seed=seed)
-    if domain not in _HOUSEEXPO_DOMAINS:
+    if domain not in HOUSEEXPO_DOMAINS:
         raise ValueError(f"unknown domain {domain!r} (choose from {', '.join(DOMAINS)})")
     source = houseexpo_source(houseexpo or None)
     if source is None or not source.exists():
         raise FileNotFoundError(2, "HouseExpo not found (install it or pass --houseexpo)", str(source or "houseexpo"))
     cache = Path(cache_dir) if cache_dir else default_data_dir() / "cache" / f"{domain}-{n_train}"
-    cfg = PairConfig(n_train=n_train, n_val=n_val, n_test=n_test, seed=seed, **_HOUSEEXPO_DOMAINS[domain])
+    cfg = domain_pair_config(domain, n_train, n_val, n_test, seed)
     splits, _ = load_or_build_houseexpo_pairs(source, cache, cfg, progress=progress)
     return splits
 

@@ -9,20 +9,22 @@ __all__ = ["DEFAULT_MODEL", "DOMAINS", "MODELS", "CheckpointError", "default_wei
 
 MODELS = {"sampler": "sampler-houseexpo", "sampler-explore": "sampler-houseexpo-explore",
           "sampler-explore-large": "sampler-houseexpo-explore-large", "sampler-seen": "sampler-houseexpo-seen",
-          "sampler-seen-large": "sampler-houseexpo-seen-large", "unet": "unet-houseexpo",
+          "sampler-seen-large": "sampler-houseexpo-seen-large", "sampler-seen-wide": "sampler-houseexpo-seen-wide",
+          "unet": "unet-houseexpo",
           "unet-explore": "unet-houseexpo-explore", "pix2pix": "pix2pix-houseexpo",
           "unet-procedural": "unet-procedural"}
 """Short names of the shipped weights (``mcnkit/weights/<name>.safetensors``): the masked samplers, which draw
 whole houses (HouseExpo's one-scan maps; maps part-way through an exploration, and the same with a U-net of four
 times the channels in its upper levels: better completions at three to five times the CPU; the same two on the
-window an explorer completes, the seen part plus 2 m, where the house's extent is unknown), and the deterministic
-nets of the paper's experiments."""
+window an explorer completes, the seen part plus 2 m, where the house's extent is unknown; the smaller of those
+trained with more maps of buildings wider than that window, framed around the robot), and the deterministic nets
+of the paper's experiments."""
 
 DEFAULT_MODEL = "sampler-explore"
 """The completion network MCN-SLAM uses unless told otherwise (``mcnkit run``, ``mcnkit demo``): the masked sampler
 trained on maps part-way through an exploration, the maps a robot's SLAM holds during a run."""
 
-DOMAINS = ("houseexpo", "houseexpo-explore", "houseexpo-seen", "procedural")
+DOMAINS = ("houseexpo", "houseexpo-explore", "houseexpo-seen", "houseexpo-seen-wide", "procedural")
 """Training domains of :func:`mcnkit.completion.data.load_domain_pairs`."""
 
 

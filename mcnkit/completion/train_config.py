@@ -27,7 +27,8 @@ class TrainConfig:
     domain: str = "houseexpo"
     """houseexpo: the paper's pairs (one 180°, 2 m scan); houseexpo-explore: m_t after 1–12 scans of a 360°, 8 m
     lidar (what MCN-SLAM completes during a run); houseexpo-seen: those maps on the window an explorer completes
-    (the seen part plus 2 m, not the plan's bounding box); procedural: HOME'S-style masks."""
+    (the seen part plus 2 m, not the plan's bounding box); houseexpo-seen-wide: the same with 4 more pairs of up
+    to 48 scans from each plan wider than that window; procedural: HOME'S-style masks."""
     out_dir: str = "runs/unet"
     """Run directory (``best.*`` and ``last.*`` checkpoints)."""
     n_train: int = 5000

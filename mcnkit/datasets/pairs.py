@@ -40,16 +40,18 @@ from mcnkit.datasets.floorplans import (
 )
 from mcnkit.datasets.houseexpo import FloorPlan, SkipLog, iter_plans, rasterize_plan, read_split, sha256_of
 from mcnkit.datasets.pseudoslam import PseudoSlamConfig, PseudoSlamObservation, exploration, free_to_ternary
-from mcnkit.grid import pad_to_square, pool_to_window, resize_ternary, seen_window
+from mcnkit.grid import SEEN_WINDOW_M, pad_to_square, pool_to_window, resize_ternary, seen_window
 from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, TernaryMap
 
 __all__ = [
     "CACHE_VERSION",
+    "HOUSEEXPO_DOMAINS",
     "PairConfig",
     "PairSet",
     "PairSplits",
     "PairStats",
     "build_houseexpo_pairs",
+    "domain_pair_config",
     "houseexpo_pair",
     "load_or_build_houseexpo_pairs",
     "pair_stats",
@@ -85,6 +87,11 @@ class PairConfig:
     (:func:`mcnkit.grid.seen_window`: the part m_t has seen plus the margin, centred on the last scan's pose
     when wider than ``max_side_m``; m_T outside the plan occupied) instead of the plan's bounding box, so the net
     learns that the house may end anywhere in the frame or go on past it.  None: the paper's frame."""
+    wide_pairs: tuple[int, int] | None = None
+    """``(extra, max_scans)``, with ``seen_window`` only: each plan wider than the window's largest side less its two
+    margins gives ``extra`` more pairs, each of ``1..max_scans`` scans.  Such plans are where an explorer's window
+    is a square around the robot on a map seen farther than the window reaches, a map that pairs of a few scans
+    seldom show (each extra pair counts towards the split's size).  None: one pair per plan."""
 
 
 @dataclass(frozen=True)
@@ -143,17 +150,53 @@ def pair_stats(pairs: PairSet) -> PairStats:
     )
 
 
+HOUSEEXPO_DOMAINS: dict[str, dict[str, Any]] = {
+    "houseexpo": {},  # the paper's pairs: one 180°, 2 m Pseudo-SLAM scan
+    # m_t = 1..12 scans of a 360°, 8 m lidar (Experiment 2's robot)
+    "houseexpo-explore": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12},
+    # the same m_t, both maps on the window mcnkit explore completes
+    "houseexpo-seen": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12,
+                       "seen_window": SEEN_WINDOW_M},
+    # the same, and 4 more pairs of up to 48 scans from each plan wider than the window: maps seen farther than
+    # the window reaches, framed by the square around the robot (else under 1 % of the pairs)
+    "houseexpo-seen-wide": {"pseudoslam": PseudoSlamConfig(range_m=8.0, fov_deg=360.0), "max_scans": 12,
+                            "seen_window": SEEN_WINDOW_M, "wide_pairs": (4, 48)},
+}
+"""HouseExpo training domains by name: how each one's :class:`PairConfig` differs from the paper's."""
+
+
+def domain_pair_config(domain: str, n_train: int, n_val: int = 200, n_test: int = 100, seed: int = 0) -> PairConfig:
+    """The :class:`PairConfig` of the HouseExpo domain ``domain`` (a key of :data:`HOUSEEXPO_DOMAINS`)."""
+    if domain not in HOUSEEXPO_DOMAINS:
+        raise ValueError(f"unknown HouseExpo domain {domain!r} (choose from {', '.join(HOUSEEXPO_DOMAINS)})")
+    return PairConfig(n_train=n_train, n_val=n_val, n_test=n_test, seed=seed, **HOUSEEXPO_DOMAINS[domain])
+
+
 def _pair_rng(seed: int, key: str) -> np.random.Generator:
     return np.random.default_rng([seed, int.from_bytes(hashlib.sha256(key.encode()).digest()[:8], "little")])
 
 
-def houseexpo_pair(plan: FloorPlan, config: PairConfig) -> tuple[F32, F32]:
-    """(m_t, m_T) at ``config.size``² for one plan: rasterize, Pseudo-SLAM scan(s), pad square, resize."""
+def is_wide(plan: FloorPlan, config: PairConfig) -> bool:
+    """Whether ``plan`` gets the extra pairs of ``config.wide_pairs``: wider than the seen window's largest side
+    less its two margins, where a well-explored map is framed by a square around the robot."""
+    if config.wide_pairs is None or config.seen_window is None:
+        return False
+    x0, y0, x1, y1 = plan.bbox_m
+    margin_m, _, max_side_m = config.seen_window
+    return max(x1 - x0, y1 - y0) > max_side_m - 2 * margin_m
+
+
+def houseexpo_pair(plan: FloorPlan, config: PairConfig, extra: int = 0) -> tuple[F32, F32]:
+    """(m_t, m_T) at ``config.size``² for one plan: rasterize, Pseudo-SLAM scan(s), pad square, resize.
+
+    ``extra`` > 0 draws the plan's ``extra``-th additional pair of ``config.wide_pairs`` (its own random stream,
+    up to that option's scan count)."""
     ps = config.pseudoslam
     free, _ = rasterize_plan(plan, 1.0 / ps.px_per_m, ps.border_px)
-    rng = _pair_rng(config.seed, plan.id)
+    rng = _pair_rng(config.seed, plan.id if extra == 0 else f"{plan.id}/{extra}")
+    max_scans = config.max_scans if extra == 0 or config.wide_pairs is None else config.wide_pairs[1]
     # the paper's pairs draw no scan count (their draws, and so their caches, predate max_scans)
-    n_scans = int(rng.integers(1, config.max_scans + 1)) if config.max_scans > 1 else 1
+    n_scans = int(rng.integers(1, max_scans + 1)) if max_scans > 1 else 1
     obs = exploration(free, ps, n_scans, rng)
     observed, truth = obs.observed, obs.ground_truth
     if config.seen_window is not None:
@@ -218,12 +261,17 @@ def build_houseexpo_pairs(
         for plan in iter_plans(source, want.keys(), skips):
             plans[plan.id] = plan
         for pid, s in want.items():  # keep the shuffled order
-            if pid in plans and len(built[s]) < needs[s]:
+            if pid not in plans:
+                continue
+            extras = cfg.wide_pairs[0] if is_wide(plans[pid], cfg) else 0  # type: ignore[index]
+            for extra in range(extras + 1):
+                if len(built[s]) >= needs[s]:
+                    break
                 try:
-                    m_t, m_T = houseexpo_pair(plans[pid], cfg)
+                    m_t, m_T = houseexpo_pair(plans[pid], cfg, extra)
                 except (ValueError, MemoryError) as exc:
                     skips.add(pid, f"build failed: {exc}")
-                    continue
+                    break
                 built[s].append((pid, m_t, m_T))
                 bar.update(1)
     bar.close()
@@ -245,6 +293,8 @@ def _key(source: Path, train_list: Path, test_list: Path, cfg: PairConfig) -> di
         del config["max_scans"]  # caches of the paper's pairs built before the option existed stay valid
     if cfg.seen_window is None:
         del config["seen_window"]  # likewise every cache built before this option
+    if cfg.wide_pairs is None:
+        del config["wide_pairs"]
     return {
         "version": CACHE_VERSION,
         "source_sha256": sha256_of(source),

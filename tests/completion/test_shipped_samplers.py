@@ -19,7 +19,8 @@ from mcnkit.types import FREE, UNKNOWN
 
 def test_mcn_slam_samples_from_a_shipped_sampler_by_default() -> None:
     assert DEFAULT_MODEL == "sampler-explore"
-    for name in ("sampler", "sampler-explore", "sampler-explore-large", "sampler-seen", "sampler-seen-large"):
+    for name in ("sampler", "sampler-explore", "sampler-explore-large", "sampler-seen", "sampler-seen-large",
+                 "sampler-seen-wide"):
         assert isinstance(load_model(name), MaskedSampler)
 
 
@@ -34,7 +35,8 @@ def _seen_frame_maps(shared_data: Path, tmp_path: Path) -> np.ndarray:
     return m_t[np.argsort(-unseen_floor)[:4]]
 
 
-@pytest.mark.parametrize("name", ["sampler-explore", "sampler-explore-large", "sampler-seen", "sampler-seen-large"])
+@pytest.mark.parametrize("name", ["sampler-explore", "sampler-explore-large", "sampler-seen", "sampler-seen-large",
+                                  "sampler-seen-wide"])
 def test_the_k_samples_differ_where_m_t_is_unknown_and_keep_what_it_observed(
         tiny_splits: PairSplits, shared_data: Path, tmp_path: Path, name: str) -> None:
     # each net on maps of the frame it learnt (see docs/completion.md, "The frame a net learns")

@@ -72,8 +72,9 @@ def test_ddp_two_gloo_processes_two_steps(tmp_path: Path) -> None:
 
 
 def test_the_seen_domain_frames_pairs_as_the_explorer_frames_its_maps() -> None:
-    from mcnkit.completion.data import _HOUSEEXPO_DOMAINS
+    from mcnkit.datasets.pairs import HOUSEEXPO_DOMAINS
     from mcnkit.explore.config import GainConfig
 
     g = GainConfig()
-    assert _HOUSEEXPO_DOMAINS["houseexpo-seen"]["seen_window"] == (g.window_margin_m, g.window_min_m, g.window_max_m)
+    for domain in ("houseexpo-seen", "houseexpo-seen-wide"):
+        assert HOUSEEXPO_DOMAINS[domain]["seen_window"] == (g.window_margin_m, g.window_min_m, g.window_max_m)

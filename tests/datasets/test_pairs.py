@@ -134,3 +134,32 @@ def test_seen_window_pairs_frame_what_the_robot_has_seen(shared_data: Path, tmp_
     assert "seen_window" not in key["config"]
     assert json.loads((tmp_path / "b" / "houseexpo-pairs.manifest.json").read_text())["key"]["config"]["seen_window"] == [
         2.0, 8.0, 30.0]
+
+
+def test_wide_plans_add_pairs_framed_around_the_robot(shared_data: Path, tmp_path: Path) -> None:
+    archive = shared_data / "houseexpo" / "json.tar.gz"
+    wide = ["704f25a5e5bcc6bcaef421a83313d92f", "0ea3802b1cabee830f3989dd9c75d496"]  # 37 m and 52 m across
+    narrow = ["0791412577f33047b7fe090535826d51", "c6a4d5d2e1d5028207324e98f790d5d8", "6f56ce29120bec8d52057f07682141ef"]
+    (tmp_path / "train.txt").write_text("\n".join(wide + narrow) + "\n")
+    (tmp_path / "test.txt").write_text("4c3b685d96afa5e3748b03e24fa2186f\n")
+    lidar = PseudoSlamConfig(range_m=8.0, fov_deg=360.0)
+    cfg = PairConfig(13, 0, 1, pseudoslam=lidar, max_scans=12, seen_window=(2.0, 8.0, 30.0), wide_pairs=(4, 48))
+    splits, _ = load_or_build_houseexpo_pairs(archive, tmp_path / "c", cfg, tmp_path / "train.txt",
+                                              tmp_path / "test.txt", progress=False)
+    ids = list(splits.train.ids)
+    # Each wide plan gives 1 + 4 pairs, each narrow plan one; the extra pairs are draws of their own.
+    assert sorted(ids.count(i) for i in wide + narrow) == [1, 1, 1, 5, 5]
+    first = ids.index(wide[0])
+    draws = splits.train.partial[first : first + 5]
+    assert all(not np.array_equal(draws[0], d) for d in draws[1:])
+    # Up to 48 scans see past a 30 m window: some of the wide plans' maps reach its edge with seen cells.
+    wide_maps = splits.train.partial[[k for k, i in enumerate(ids) if i in wide]]
+    edge = np.concatenate([wide_maps[:, 0], wide_maps[:, -1], wide_maps[:, :, 0], wide_maps[:, :, -1]], axis=1)
+    assert np.any(np.any(edge != UNKNOWN, axis=1))
+    # The plain seen-window pairs of the same plans are the first of each plan's draws, and their cache key is unchanged.
+    plain = PairConfig(5, 0, 1, pseudoslam=lidar, max_scans=12, seen_window=(2.0, 8.0, 30.0))
+    base, _ = load_or_build_houseexpo_pairs(archive, tmp_path / "d", plain, tmp_path / "train.txt",
+                                            tmp_path / "test.txt", progress=False)
+    for k, pid in enumerate(base.train.ids):
+        assert np.array_equal(base.train.partial[k], splits.train.partial[ids.index(pid)])
+    assert "wide_pairs" not in json.loads((tmp_path / "d" / "houseexpo-pairs.manifest.json").read_text())["key"]["config"]

@@ -18,6 +18,7 @@ import numpy as np
 
 from mcnkit.app.exits import fail
 from mcnkit.app.options import add_options
+from mcnkit.completion.registry import DOMAINS
 from mcnkit.datasets.houseexpo import HOUSEEXPO_SHA256, default_data_dir, find_houseexpo, install_houseexpo
 
 if TYPE_CHECKING:
@@ -56,7 +57,7 @@ def _stats_line(name: str, pairs: PairSet) -> dict[str, object]:
 
 def cmd_pairs(args: argparse.Namespace) -> int:
     """``mcnkit data pairs --out DIR``: build (or reuse the cached) pairs and print counts and statistics."""
-    from mcnkit.datasets.pairs import PairConfig, load_or_build_houseexpo_pairs, procedural_pairs
+    from mcnkit.datasets.pairs import domain_pair_config, load_or_build_houseexpo_pairs, procedural_pairs
 
     t0 = time.perf_counter()
     try:
@@ -77,7 +78,7 @@ def cmd_pairs(args: argparse.Namespace) -> int:
             source = _houseexpo_source(args)
             if source is None:
                 return fail("data pairs", "HouseExpo not installed; run `mcnkit data install houseexpo --from ...`")
-            cfg = PairConfig(n_train=args.train, n_val=args.val, n_test=args.test, seed=args.seed)
+            cfg = domain_pair_config(args.domain, args.train, args.val, args.test, args.seed)
             splits, rebuilt = load_or_build_houseexpo_pairs(
                 source, args.out, cfg, args.train_list, args.test_list, progress=not args.no_progress
             )
@@ -159,9 +160,10 @@ class PairsOptions:
 
     out: str
     """cache directory"""
-    domain: Literal["houseexpo", "procedural"] = "houseexpo"
-    """houseexpo: Pseudo-SLAM scans of HouseExpo plans (the paper); procedural: generated apartments with
-    HOME'S-style masks"""
+    domain: str = "houseexpo"
+    """houseexpo: Pseudo-SLAM scans of HouseExpo plans (the paper); houseexpo-explore, houseexpo-seen,
+    houseexpo-seen-wide: the pairs the exploration samplers learn from (see ``mcnkit train --help``); procedural:
+    generated apartments with HOME'S-style masks"""
     houseexpo: str | None = None
     """json.tar.gz or json/ folder (default: the installed one)"""
     train_list: str | None = None
@@ -205,7 +207,7 @@ def add_data_parser(subparsers: argparse._SubParsersAction) -> None:
                 help={"sha256": f"expected digest (default {HOUSEEXPO_SHA256[:12]}…; '' = skip)"})
     inst.set_defaults(func=cmd_install)
     pairs = sub.add_parser("pairs", help="build (or reuse the cached) 64x64 (m_t, m_T) pairs")
-    add_options(pairs, PairsOptions)
+    add_options(pairs, PairsOptions, choices={"domain": DOMAINS})
     pairs.set_defaults(func=cmd_pairs)
     ex = sub.add_parser("examples", help="write a PNG grid of example pairs (m_t, mask, m_T) for both domains")
     add_options(ex, ExamplesOptions)

@@ -41,6 +41,12 @@ def test_pairs(tiny_houseexpo: Path, tmp_path: Path, capsys: pytest.CaptureFixtu
     out = tmp_path / "p"
     assert _run(["data", "pairs", "--domain", "procedural", "--out", str(out), "--train", "3", "--val", "1"]) == 0
     assert (out / "procedural-pairs.npz").is_file()
+    # Every training domain's pairs can be built ahead of training: the seen window's are keyed by it.
+    seen = tmp_path / "s"
+    argv = ["data", "pairs", "--domain", "houseexpo-seen", "--out", str(seen), "--houseexpo", str(tiny_houseexpo)]
+    assert _run([*argv, "--train", "2", "--val", "1", "--test", "1", "--no-progress"]) == 0
+    manifest = json.loads((seen / "houseexpo-pairs.manifest.json").read_text())
+    assert manifest["key"]["config"]["seen_window"] == [2.0, 8.0, 30.0]
 
 
 def test_examples(tiny_houseexpo: Path, tmp_path: Path) -> None:
