@@ -166,14 +166,16 @@ class McnPlanner:
 
     def _beyond_window(self, view: PlanningView, window: GridSpec, xy_m: F64, window_gains: F64) -> F64:
         """(V,) the gains beyond the completions' window (:func:`mcnkit.explore.gain.beyond_window_gains`), on a grid
-        of the window's cells grown to hold the whole seen map; zeros when the window holds it."""
+        of the window's cells grown to hold the whole seen map (and, with ``GainConfig.beyond_reach``, the sensor's
+        range around the window); zeros when that grid is the window."""
         res = window.resolution_m
         x0, y0, x1, y1 = view.lineage.seen_bounds_m()
         wx1, wy1 = window.origin_x_m + window.width * res, window.origin_y_m + window.height * res
-        left = max(0, math.ceil((window.origin_x_m - x0) / res))
-        below = max(0, math.ceil((window.origin_y_m - y0) / res))
-        right = max(0, math.ceil((x1 - wx1) / res))
-        above = max(0, math.ceil((y1 - wy1) / res))
+        reach = self.range_m if self.config.beyond_reach else 0.0
+        left = max(0, math.ceil((window.origin_x_m - x0) / res), math.ceil(reach / res))
+        below = max(0, math.ceil((window.origin_y_m - y0) / res), math.ceil(reach / res))
+        right = max(0, math.ceil((x1 - wx1) / res), math.ceil(reach / res))
+        above = max(0, math.ceil((y1 - wy1) / res), math.ceil(reach / res))
         if left + below + right + above == 0:
             return np.zeros(len(xy_m))
         outer = GridSpec(res, window.origin_x_m - left * res, window.origin_y_m - below * res,

@@ -214,3 +214,39 @@ def test_the_gains_are_computed_on_whatever_completion_prediction_gives() -> Non
 
     walled, open_ = (Given(fill).score(view, points, field)[0][0] for fill in (OCCUPIED, FREE))
     assert walled == 0.0 < open_  # nothing to see where the completion walls the unknown off; floor where it is open
+
+
+def test_beyond_reach_counts_what_a_scan_from_the_maps_edge_sees_past_the_window() -> None:
+    from mcnkit.explore.predict import Prediction, choose_window
+
+    angles = np.linspace(-np.pi, np.pi, 360, endpoint=False)
+    lineage = LineageMap(0.05, angles, np.zeros(3), max_range_m=7.99, usable_m=7.98, occ_thresh=0.25)
+    ranges = (3.0 / np.maximum(np.abs(np.cos(angles)), np.abs(np.sin(angles)))).astype(np.float32)
+    ranges[np.abs(angles) < 0.1] = 6.0  # a door east, its passage seen 6 m out: the seen map ends there
+    lineage.sync(np.zeros((1, 3)), [ranges])
+    view = planning_view(lineage, np.zeros(3), 0.05)
+    field = cost_field(view.image, view.grid, view.pose[:2], 0.2, 0.05)
+    cells = view.grid.world_to_cell(np.array([[5.5, 0.0], [-2.0, 0.0]]))  # at the passage's end; in the room
+    points = Viewpoints(np.arange(2), cells, view.grid.cell_to_world(cells), field.cost_m[cells[:, 0], cells[:, 1]],
+                        np.ones(2, np.int64))
+
+    class Given(McnPlanner):
+        """Completions that fill the unknown with ``fill`` (free: open house all around; occupied: none)."""
+
+        def __init__(self, fill: float, beyond_reach: bool) -> None:
+            super().__init__(None, GainConfig(beyond_reach=beyond_reach), 8.0, torch.Generator())  # type: ignore[arg-type]
+            self.fill = fill
+
+        def prediction(self, view: PlanningView) -> Prediction:
+            window = choose_window(view.lineage.seen_bounds_m(), self.config, 64, 0.05, view.pose[:2])
+            partial = view.lineage.pooled(window).astype(np.float32)
+            return Prediction(window, partial, np.where(partial == UNKNOWN, self.fill, partial)[None])
+
+    window_only, reach = (Given(FREE, on).score(view, points, field)[0] for on in (False, True))
+    # The window ends 2 m past the seen map, a scan from its edge reaches 8 m: the rest counts with beyond_reach ...
+    assert reach[0] > window_only[0] > 0
+    # ... not from inside the room, whose known walls hide everything past the window ...
+    assert reach[1] == pytest.approx(window_only[1])
+    # ... and less where the samples wall the unknown off (they expect less of it in sight inside the window).
+    walled = [Given(OCCUPIED, on).score(view, points, field)[0][0] for on in (False, True)]
+    assert 0 <= walled[1] - walled[0] < reach[0] - window_only[0]
