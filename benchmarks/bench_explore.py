@@ -314,7 +314,7 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "unknown, ratio, empty goal let go": ("mcn", None, {"gain": "unknown"}, {"release_empty": True}),
     "unknown, nearest worth 1 m²": ("mcn", None, {"gain": "unknown", "tradeoff": "nearest"}, {}),
     "free, ratio": ("mcn", None, {"gain": "free"}, {}),
-    "unknown, ratio, beyond reach": ("mcn", None, {"gain": "unknown", "beyond_reach": True}, {}),
+    "unknown, ratio, window and seen map only": ("mcn", None, {"gain": "unknown", "beyond_reach": False}, {}),
     "true plan: unknown, ratio": ("mcn", TRUTH, {"gain": "unknown"}, {}),
     "true plan: free, ratio": ("mcn", TRUTH, {"gain": "free"}, {}),
     "true plan: unknown, nearest worth 1 m²": ("mcn", TRUTH, {"gain": "unknown", "tradeoff": "nearest"}, {}),

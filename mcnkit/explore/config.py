@@ -144,7 +144,7 @@ class GainConfig:
     window_max_m: float = SEEN_WINDOW_M[2]
     """A map whose window would be wider than this (a building, not a house) is completed on a window of this side
     centred on the robot instead [m]."""
-    beyond_reach: bool = False
+    beyond_reach: bool = True
     """Count the unknown space a scan would see past the window out to the sensor's range wherever it lies, not only
     where the seen map reaches past the window (:func:`mcnkit.explore.gain.beyond_window_gains`): a window that holds
     the seen map ends ``window_margin_m`` past it, short of what a scan from the map's edge reaches, so without it
