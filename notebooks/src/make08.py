@@ -120,7 +120,7 @@ md("""## Over many houses
 One house says little: exploration results vary a lot from plan to plan. `benchmarks/bench_explore.py` runs both
 planners on Experiment 2's 50 HouseExpo test houses and on procedural apartments with the same seeds, and reports
 the mean path to 90 % coverage with a 95 % confidence interval from the per-house differences. Its last results,
-if present:"""),
+if present, and the same benchmark on three seed sets pooled (`benchmarks/studies/explore_seeds.py`):"""),
 code("""import json
 from pathlib import Path
 
@@ -134,6 +134,13 @@ if results.exists():
                   f"(mcn) over {p['both_finished']} houses: {100 * p['saving']:.1f} % shorter "
                   f"(95 % CI {100 * p['saving_ci95'][0]:.1f} to {100 * p['saving_ci95'][1]:.1f} %)")
 else:
-    print("no benchmark results yet: .venv/bin/python -m benchmarks.bench_explore")"""),
+    print("no benchmark results yet: .venv/bin/python -m benchmarks.bench_explore")
+pooled = Path("../benchmarks/results/explore_seeds.json")  # the same benchmark on three seed sets, pooled
+if pooled.exists():
+    for domain, d in json.loads(pooled.read_text())["domains"].items():
+        per_set = " / ".join(f"{100 * x:.1f}" for x in d["saving_per_set"])
+        print(f"{domain}, {d['seed_sets']} seed sets: {per_set} %, pooled {100 * d['saving']:.1f} % shorter "
+              f"(95 % CI {100 * d['saving_ci95'][0]:.1f} to {100 * d['saving_ci95'][1]:.1f} %) over "
+              f"{d['runs_both_finished']} runs; only frontier finished: {d['runs_only_frontier_finished']}")"""),
 ]
 save(cells, "08_exploring_with_predicted_maps.ipynb")
