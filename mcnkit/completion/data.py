@@ -6,8 +6,9 @@ lidar from poses a robot could have reached: the maps MCN-SLAM completes during 
 maps on the window an explorer completes, the seen part plus 2 m, where the plan's bounding box is unknown),
 ``houseexpo-seen-wide`` (the same, with more pairs from plans wider than that window, seen far enough to be framed
 around the robot) and ``procedural`` (procedural apartments with HOME'S masking, built in memory); each HouseExpo
-domain's :class:`~mcnkit.datasets.PairConfig` is in :data:`mcnkit.datasets.pairs.HOUSEEXPO_DOMAINS`.  Augmentation draws one of the 8 symmetries of the square per pair (flip left-right, flip up-down,
-transpose; or flips only), the same for m_t and m_T, from an injected :class:`torch.Generator`.
+domain's :class:`~mcnkit.datasets.PairConfig` is in :data:`mcnkit.datasets.pairs.HOUSEEXPO_DOMAINS`.
+Augmentation draws one of the 8 symmetries of the square per pair (flip left-right, flip up-down, transpose; or
+flips only), the same for m_t and m_T, from an injected :class:`torch.Generator`.
 """
 
 from __future__ import annotations

@@ -263,7 +263,7 @@ def build_houseexpo_pairs(
         for pid, s in want.items():  # keep the shuffled order
             if pid not in plans:
                 continue
-            extras = cfg.wide_pairs[0] if is_wide(plans[pid], cfg) else 0  # type: ignore[index]
+            extras = cfg.wide_pairs[0] if cfg.wide_pairs is not None and is_wide(plans[pid], cfg) else 0
             for extra in range(extras + 1):
                 if len(built[s]) >= needs[s]:
                     break
