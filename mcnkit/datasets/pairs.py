@@ -176,14 +176,15 @@ def _pair_rng(seed: int, key: str) -> np.random.Generator:
     return np.random.default_rng([seed, int.from_bytes(hashlib.sha256(key.encode()).digest()[:8], "little")])
 
 
-def is_wide(plan: FloorPlan, config: PairConfig) -> bool:
-    """Whether ``plan`` gets the extra pairs of ``config.wide_pairs``: wider than the seen window's largest side
-    less its two margins, where a well-explored map is framed by a square around the robot."""
+def extra_pairs(plan: FloorPlan, config: PairConfig) -> int:
+    """How many more pairs ``plan`` gives under ``config.wide_pairs``: its ``extra`` when the plan is wider than the
+    seen window's largest side less its two margins (where a well-explored map is framed by a square around the
+    robot), else 0."""
     if config.wide_pairs is None or config.seen_window is None:
-        return False
+        return 0
     x0, y0, x1, y1 = plan.bbox_m
     margin_m, _, max_side_m = config.seen_window
-    return max(x1 - x0, y1 - y0) > max_side_m - 2 * margin_m
+    return config.wide_pairs[0] if max(x1 - x0, y1 - y0) > max_side_m - 2 * margin_m else 0
 
 
 def houseexpo_pair(plan: FloorPlan, config: PairConfig, extra: int = 0) -> tuple[F32, F32]:
@@ -263,8 +264,7 @@ def build_houseexpo_pairs(
         for pid, s in want.items():  # keep the shuffled order
             if pid not in plans:
                 continue
-            extras = cfg.wide_pairs[0] if cfg.wide_pairs is not None and is_wide(plans[pid], cfg) else 0
-            for extra in range(extras + 1):
+            for extra in range(extra_pairs(plans[pid], cfg) + 1):
                 if len(built[s]) >= needs[s]:
                     break
                 try:

@@ -171,11 +171,11 @@ class McnPlanner:
         res = window.resolution_m
         x0, y0, x1, y1 = view.lineage.seen_bounds_m()
         wx1, wy1 = window.origin_x_m + window.width * res, window.origin_y_m + window.height * res
-        reach = self.range_m if self.config.beyond_reach else 0.0
-        left = max(0, math.ceil((window.origin_x_m - x0) / res), math.ceil(reach / res))
-        below = max(0, math.ceil((window.origin_y_m - y0) / res), math.ceil(reach / res))
-        right = max(0, math.ceil((x1 - wx1) / res), math.ceil(reach / res))
-        above = max(0, math.ceil((y1 - wy1) / res), math.ceil(reach / res))
+        reach = math.ceil(self.range_m / res) if self.config.beyond_reach else 0  # cells around the window
+        left = max(reach, math.ceil((window.origin_x_m - x0) / res))
+        below = max(reach, math.ceil((window.origin_y_m - y0) / res))
+        right = max(reach, math.ceil((x1 - wx1) / res))
+        above = max(reach, math.ceil((y1 - wy1) / res))
         if left + below + right + above == 0:
             return np.zeros(len(xy_m))
         outer = GridSpec(res, window.origin_x_m - left * res, window.origin_y_m - below * res,
