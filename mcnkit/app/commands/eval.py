@@ -70,7 +70,8 @@ class AteOptions(_Matching):
     trajectory: Path
     """estimated trajectory, TUM format"""
     reference: Path
-    """reference trajectory, TUM format"""
+    """reference trajectory: a TUM file, or a log that carries one (a Radish corrected CARMEN log, a bag with a
+    ground-truth topic, a simulated log)"""
     match: Literal["stamp", "order"] = "stamp"
     """stamp: each reference pose with the estimate pose of the nearest stamp (default); order: the k-th pose of
     each (the same number of poses, one per scan of the same log)"""
@@ -126,7 +127,8 @@ def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
     a = sub.add_parser("ate", help="ATE (after rigid 2-D alignment) and RPE against a reference trajectory",
                        description="ATE: RMSE of the positions after the least-squares rigid 2-D alignment of the "
                        "estimate onto the reference; RPE: the error of the motion between consecutive matched "
-                       "poses.  Write a log's reference with 'mcnkit eval groundtruth LOG OUT.tum'.")
+                       "poses.  REFERENCE is a TUM file or a log that carries its ground truth (read as 'mcnkit eval "
+                       "groundtruth LOG OUT.tum' writes it).")
     add_options(a, AteOptions, positional=("trajectory", "reference"))
     a.set_defaults(func=run_eval_ate)
     c = sub.add_parser("consistency", help="how well trajectories agree with the log's own scans (no reference needed)",
@@ -168,6 +170,34 @@ def _read(reader: Any, path: Path, what: str) -> Any:
     return value
 
 
+def _reference(path: Path) -> Trajectory:
+    """The reference trajectory at ``path``: a TUM file, or the ground truth of a log (a rosbag2 folder, a bag, an
+    MCAP or CARMEN file), or :class:`_Refused`."""
+    import warnings
+
+    from mcnkit.io import LogError, open_log
+    from mcnkit.metrics import read_tum
+
+    if not path.is_dir():
+        try:
+            return _read(read_tum, path, "reference trajectory")
+        except _Refused as not_tum:
+            tum_problem = not_tum
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the log's notes on its scans and odometry: only its ground truth is read
+            with open_log(path) as log:
+                truth = log.ground_truth()
+    except LogError as err:
+        if not path.is_dir():
+            raise tum_problem from err  # neither a TUM file nor a log: the TUM reader's reason
+        raise _Refused(str(err).splitlines()[0]) from err
+    if truth is None or len(truth) == 0:
+        raise _Refused(f"{path}: this log carries no ground-truth trajectory (a Radish corrected CARMEN log, a "
+                       "ground-truth topic or a simulated log does)")
+    return truth
+
+
 def _command(args: argparse.Namespace) -> str:
     return f"eval {args.eval_command}"
 
@@ -198,15 +228,15 @@ def run_eval_relations(args: argparse.Namespace) -> int:
 
 
 def run_eval_ate(args: argparse.Namespace) -> int:
-    """Prints ATE and RPE of a TUM trajectory against a reference TUM trajectory (exit 2 when too few poses
-    match, or their stamps cannot be matched)."""
+    """Prints ATE and RPE of a TUM trajectory against a reference (a TUM trajectory, or a log's ground truth; exit 2
+    when too few poses match, or their stamps cannot be matched)."""
     from mcnkit.app.exits import fail
     from mcnkit.metrics import EvaluationError, absolute_trajectory_error, read_tum, relative_pose_error
 
     options = {"match": args.match, "min_matched": args.min_matched, "min_fraction": args.min_fraction}
     try:
         traj: Trajectory = _read(read_tum, args.trajectory, "trajectory")
-        ref: Trajectory = _read(read_tum, args.reference, "reference trajectory")
+        ref: Trajectory = _reference(args.reference)
         ate = absolute_trajectory_error(traj, ref, args.tolerance_s, **options)
         rpe = relative_pose_error(traj, ref, args.tolerance_s, **options)
     except _Refused as exc:

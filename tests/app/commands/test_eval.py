@@ -127,6 +127,30 @@ def test_groundtruth_of_a_corrected_carmen_log(tmp_path: Path, shared_data: Path
 
 
 @pytest.mark.slow
+def test_ate_reads_the_reference_straight_from_a_log_that_carries_one(tmp_path: Path, shared_data: Path,
+                                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    log = shared_data / "reallab/radish/aces-corrected.log.gz"
+    truth = tmp_path / "aces.tum"
+    assert main(["eval", "groundtruth", str(log), str(truth)]) == 0
+    run = tmp_path / "run.tum"
+    ref = read_tum(truth)
+    stretched = ref.poses * [1.05, 1.0, 1.0]  # 5 % longer along x: no rigid motion undoes it
+    write_tum(run, Trajectory(ref.stamps_ns, stretched))
+    capsys.readouterr()
+    assert main(["eval", "ate", str(run), str(truth), "--json"]) == 0
+    from_tum = json.loads(capsys.readouterr().out)
+    assert main(["eval", "ate", str(run), str(log), "--json"]) == 0
+    from_log = json.loads(capsys.readouterr().out)
+    assert from_log["ate"] == pytest.approx(from_tum["ate"], abs=1e-5) and from_tum["ate"]["rmse_m"] > 0.1
+    # a log without ground truth, and a file that is neither a trajectory nor a log, are one line each
+    assert main(["eval", "ate", str(run), str(shared_data / "reallab/mit-csail/mit-csail.clf")]) == 2
+    assert "mit-csail.clf: this log carries no ground-truth trajectory" in _err(capsys)
+    junk = tmp_path / "map.png"
+    junk.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    assert main(["eval", "ate", str(run), str(junk)]) == 2
+    assert _err(capsys).startswith(f"mcnkit eval ate: {junk}: not a reference trajectory file")
+
+
 def test_consistency_needs_no_reference_and_flags_a_bent_trajectory(tmp_path: Path, shared_data: Path,
                                                                     capsys: pytest.CaptureFixture[str]) -> None:
     """``mcnkit eval consistency``: a log's corrected poses bent by 0.5° of heading halfway round agree with the
