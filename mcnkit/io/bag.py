@@ -2,7 +2,10 @@
 
 Detection (each overridable in :func:`mcnkit.io.open_log`):
 
-* scan topic: the ``sensor_msgs/LaserScan`` topic named ``/scan``, else the one with the most messages;
+* scan topic: the ``sensor_msgs/LaserScan`` topic named ``/scan``, else the one with the most messages; in a log with
+  no LaserScan, the same among its ``sensor_msgs/MultiEchoLaserScan`` topics (read as their first echoes); a topic
+  whose name says its scanner is vertical or tilted (a backpack's second scanner) comes after the others, and a log
+  with several scan topics says which one it reads;
 * odometry: the ``nav_msgs/Odometry`` topic named ``/odom``, else the busiest Odometry topic whose name does
   not look like ground truth; else the ``odom → base`` transform on ``/tf`` (``tf:<odom>-><base>``);
 * the laser's mount: the chain of ``/tf_static`` transforms (else of fixed ones on ``/tf``) from the base frame to the
@@ -43,7 +46,7 @@ import numpy as np
 
 from mcnkit.geometry import quaternion_to_yaw
 from mcnkit.io.base import GroundTruthMap, LogReader, TopicInfo
-from mcnkit.io.decode import MessageDecoder
+from mcnkit.io.decode import MULTI_ECHO_TYPE, SCAN_TYPE, MessageDecoder
 from mcnkit.io.errors import PARSE_ERRORS, LogError, LogWarning, as_log_error, warn_skipped
 from mcnkit.io.plausible import MAX_RANGE_M, check_spec, plausible_frames, spec_problem
 from mcnkit.io.sources import Connection, RawSource
@@ -52,7 +55,7 @@ from mcnkit.types import Frame, LidarSpec, Pose2D, Scan, Trajectory
 
 __all__ = ["BagLog", "resample_beams"]
 
-SCAN_TYPE = "sensor_msgs/msg/LaserScan"
+SCAN_TYPES = (SCAN_TYPE, MULTI_ECHO_TYPE)
 ODOM_TYPE = "nav_msgs/msg/Odometry"
 POSE_TYPES = (ODOM_TYPE, "geometry_msgs/msg/PoseStamped")
 TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
@@ -105,6 +108,18 @@ def _time_increment(said_s: list[float], n_beams: int) -> float:
     return t if math.isfinite(t) and 0.0 < abs(t) * (n_beams - 1) <= _MAX_SWEEP_S else 0.0
 
 
+_SIDEWAYS = re.compile(r"vertical|tilt", re.IGNORECASE)
+
+
+def _pick_scan(scans: list[TopicInfo]) -> str | None:
+    """The scan topic to read: LaserScan before MultiEchoLaserScan, a scanner not named vertical or tilted before one
+    that is, ``/scan`` first, then the busiest."""
+    if not scans:
+        return None
+    return max(scans, key=lambda t: (t.msgtype == SCAN_TYPE, not _SIDEWAYS.search(t.name), t.name == "/scan",
+                                     t.count)).name
+
+
 def _pick(conns: list[TopicInfo], preferred: str) -> str | None:
     if not conns:
         return None
@@ -128,10 +143,15 @@ class BagLog(LogReader):
         for c in source.connections:
             topics[(c.topic, c.msgtype)] = topics.get((c.topic, c.msgtype), 0) + c.count
         self._topics = [TopicInfo(n, t, k) for (n, t), k in topics.items()]
-        scans = [t for t in self._topics if t.msgtype == SCAN_TYPE]
+        scans = [t for t in self._topics if t.msgtype in SCAN_TYPES]
         if scan_topic is not None and scan_topic not in {t.name for t in scans}:
-            raise LogError(path, f"no LaserScan topic {scan_topic!r} (LaserScan topics: {[t.name for t in scans]})")
-        self._scan_topic = scan_topic or _pick(scans, "/scan")
+            raise LogError(path, f"no LaserScan or MultiEchoLaserScan topic {scan_topic!r} (scan topics: "
+                                 f"{[t.name for t in scans]})")
+        self._scan_topic = scan_topic or _pick_scan(scans)
+        if scan_topic is None and len(scans) > 1:
+            others = sorted(t.name for t in scans if t.name != self._scan_topic)
+            warnings.warn(f"{path}: {len(scans)} scan topics: reading {self._scan_topic} (not {', '.join(others)}; "
+                          "--scan-topic chooses)", LogWarning, stacklevel=2)
         self._odom_source = self._detect_odom(odom)
         self._spec: LidarSpec | None = None
         self._upside_down = False  # the scanner is mounted upside down: its ranges are read in reverse
@@ -283,7 +303,8 @@ class BagLog(LogReader):
 
     def _require_scan(self) -> str:
         if not self._scan_topic:
-            raise LogError(self.path, f"no sensor_msgs/LaserScan topic (topics: {[t.name for t in self._topics]})")
+            raise LogError(self.path, "no sensor_msgs/LaserScan (or MultiEchoLaserScan) topic (topics: "
+                                      f"{[t.name for t in self._topics]})")
         return self._scan_topic
 
     @property
@@ -300,7 +321,7 @@ class BagLog(LogReader):
             unstated: float | None = None  # a range_max that states no range
             for conn, _, raw in self._src.messages([topic]):
                 try:
-                    s = self._decoder.scan(raw, conn.encoding)
+                    s = self._decoder.scan(raw, conn.encoding, conn.msgtype)
                 except PARSE_ERRORS:
                     continue
                 rmin, rmax = float(s.range_min_m), float(s.range_max_m)
@@ -372,7 +393,7 @@ class BagLog(LogReader):
         does not keep them constant, as many 360° scanners' do not) is resampled onto them (once the scanner is
         known), and an upside-down scanner's readings are reversed."""
         try:
-            s = self._decoder.scan(raw, conn.encoding)
+            s = self._decoder.scan(raw, conn.encoding, conn.msgtype)
         except PARSE_ERRORS:
             return None
         ranges = s.ranges_m

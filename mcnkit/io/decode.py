@@ -5,6 +5,10 @@ The hot path of reading a robot log is one LaserScan and one Odometry per scan. 
 ``struct``/``numpy.frombuffer`` directly — several times faster than generic deserialisers.  Any other
 layout (big-endian CDR, unexpected sizes) falls back to the generic path, which handles every message type
 through a rosbags typestore filled with the definitions stored in the log itself.
+
+A ``sensor_msgs/MultiEchoLaserScan`` (the 2-D scanners of Cartographer's backpack logs, and drivers that report
+several echoes per beam) is read as the LaserScan of its first echoes, as Cartographer reads it: the nearest surface
+a beam met.  A beam with no echo is no return (NaN).
 """
 
 from __future__ import annotations
@@ -20,7 +24,10 @@ from rosbags.typesys.store import Typestore
 
 from mcnkit.geometry import quaternion_to_yaw
 
-__all__ = ["DecodedOdometry", "DecodedScan", "MessageDecoder", "normalize_msgtype"]
+__all__ = ["MULTI_ECHO_TYPE", "SCAN_TYPE", "DecodedOdometry", "DecodedScan", "MessageDecoder", "normalize_msgtype"]
+
+SCAN_TYPE = "sensor_msgs/msg/LaserScan"
+MULTI_ECHO_TYPE = "sensor_msgs/msg/MultiEchoLaserScan"
 
 _U32 = struct.Struct("<I")
 _STAMP1 = struct.Struct("<III")  # ROS1 header: seq, secs, nsecs
@@ -156,8 +163,10 @@ class MessageDecoder:
             return ts.deserialize_ros1(raw, name)
         return ts.deserialize_cdr(raw, name)
 
-    def scan(self, raw: bytes | memoryview, encoding: str) -> DecodedScan:
-        """A sensor_msgs/LaserScan."""
+    def scan(self, raw: bytes | memoryview, encoding: str, msgtype: str = SCAN_TYPE) -> DecodedScan:
+        """A sensor_msgs/LaserScan, or the first echoes of a MultiEchoLaserScan (``msgtype``)."""
+        if normalize_msgtype(msgtype) == MULTI_ECHO_TYPE:
+            return self._multi_echo_scan(raw, encoding)
         cdr = encoding == "cdr"
         if not cdr or _is_le_cdr(memoryview(raw)):
             try:
@@ -169,6 +178,14 @@ class MessageDecoder:
             _stamp_of(m.header), m.header.frame_id, float(m.angle_min), float(m.angle_increment),
             float(m.range_min), float(m.range_max), np.asarray(m.ranges, dtype=np.float32),
             float(m.time_increment),
+        )
+
+    def _multi_echo_scan(self, raw: bytes | memoryview, encoding: str) -> DecodedScan:
+        m = self.decode(raw, MULTI_ECHO_TYPE, encoding)
+        first = np.array([e.echoes[0] if len(e.echoes) else np.nan for e in m.ranges], dtype=np.float32)
+        return DecodedScan(
+            _stamp_of(m.header), m.header.frame_id, float(m.angle_min), float(m.angle_increment),
+            float(m.range_min), float(m.range_max), first, float(m.time_increment),
         )
 
     def odometry(self, raw: bytes | memoryview, encoding: str) -> DecodedOdometry:

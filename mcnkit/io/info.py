@@ -66,7 +66,7 @@ def print_info(info: dict[str, Any]) -> None:
     width = max([len(t["name"]) for t in info["topics"]] + [5])
     for t in info["topics"]:
         print(f"  {t['name']:<{width}}  {t['count']:>7}  {t['type']}")
-    print(f"scan      {info['scan_topic'] or 'none (no sensor_msgs/LaserScan topic)'}")
+    print(f"scan      {info['scan_topic'] or 'none (no sensor_msgs/LaserScan or MultiEchoLaserScan topic)'}")
     if not info["odom_source"]:
         print("odometry  no odometry: lidar-only (no Odometry topic, no odom->base transform)")
     elif info["lidar_only"]:

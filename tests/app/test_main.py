@@ -67,7 +67,7 @@ def test_a_log_without_laser_cannot_be_converted(tmp_path: Path, shared_data: Pa
     assert main(["convert", str(shared_data / "fixtures/rosbag_js/example.bag"), str(tmp_path / "x.bag")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"mcnkit convert: {shared_data / 'fixtures/rosbag_js/example.bag'}: no sensor_msgs/LaserScan "
-                   "topic (topics: ['/rosout', '/turtle1/color_sensor', '/tf_static', '/turtle2/color_sensor', "
+                   "(or MultiEchoLaserScan) topic (topics: ['/rosout', '/turtle1/color_sensor', '/tf_static', '/turtle2/color_sensor', "
                    "'/turtle1/pose', '/turtle2/pose', '/tf', '/turtle2/cmd_vel', '/turtle1/cmd_vel'])"]
     assert not (tmp_path / "x.bag").exists()
 

@@ -39,9 +39,9 @@ def test_an_empty_file_and_a_text_file(tmp_path: Path) -> None:
 def test_a_log_without_a_laser_topic(shared_data: Path) -> None:
     with open_log(shared_data / "fixtures/rosbag_js/example.bag") as log:
         assert log.scan_topic == ""
-        with pytest.raises(LogError, match="no sensor_msgs/LaserScan topic"):
+        with pytest.raises(LogError, match=r"no sensor_msgs/LaserScan \(or MultiEchoLaserScan\) topic"):
             next(iter(log.frames()))
-    with pytest.raises(LogError, match="no LaserScan topic '/laser'"):
+    with pytest.raises(LogError, match="no LaserScan or MultiEchoLaserScan topic '/laser'"):
         open_log(shared_data / "fixtures/rosbag_js/example.bag", scan_topic="/laser")
 
 

@@ -11,17 +11,24 @@ from typing import Literal
 from mcnkit.app.options import add_options
 from mcnkit.io.info import describe, print_info
 
-__all__ = ["InfoOptions", "SourceOptions", "add_info_parser"]
+__all__ = ["InfoOptions", "SourceOptions", "TopicOptions", "add_info_parser"]
 
 
 @dataclass(frozen=True, kw_only=True)
-class SourceOptions:
-    """Which streams of a log to read."""
+class TopicOptions:
+    """Which topics of a bag to read (a log with several scanners or odometry sources)."""
 
     scan_topic: str | None = None
-    """LaserScan topic to use (default: /scan, else the busiest LaserScan topic)"""
+    """scan topic to read (default: /scan, else the busiest LaserScan topic, else the busiest MultiEchoLaserScan
+    topic, read as its first echoes)"""
     odom: str | None = None
     """Odometry topic, or tf:ODOM_FRAME->BASE_FRAME (default: detected)"""
+
+
+@dataclass(frozen=True, kw_only=True)
+class SourceOptions(TopicOptions):
+    """Which streams of a log to read."""
+
     odometry: Literal["use", "ignore"] = "use"
     """use the log's odometry, or ignore it: read the log lidar-only, as a log without odometry is read"""
 

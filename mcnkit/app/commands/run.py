@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from mcnkit.app.commands.info import TopicOptions
 from mcnkit.app.options import add_options
 from mcnkit.app.recording import LIVE_CONST, LiveOptions
 from mcnkit.completion.registry import DEFAULT_MODEL, MODELS
@@ -89,7 +90,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     mcn = McnSlam(slam_config, model, stepped, np.random.default_rng(seed),
                   generator=torch.Generator().manual_seed(seed))
     logger = None
-    with SIGNALS.deferred(), open_log(args.log, odometry=slam_config.motion.odometry) as log:
+    with SIGNALS.deferred(), open_log(args.log, scan_topic=args.scan_topic, odom=args.odom,
+                                      odometry=slam_config.motion.odometry) as log:
+        info.update(scan_topic=log.scan_topic, odometry_source=log.odom_source)
         count = next((t.count for t in getattr(log, "topics", []) if t.name == getattr(log, "scan_topic", None)),
                      None)
         rec_id = f"mcn-{Path(args.log).stem}-{model_name if model_name in MODELS else 'custom'}-{seed}"
@@ -124,7 +127,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 @dataclass(frozen=True, kw_only=True)
-class RunOptions(LiveOptions):
+class RunOptions(LiveOptions, TopicOptions):
     """``mcnkit run LOG [--rrd FILE] [--out DIR] [...]``: the sections are ``slam``, ``mcn`` and ``recording``."""
 
     log: Path

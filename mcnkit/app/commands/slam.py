@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mcnkit.app.commands.info import TopicOptions
 from mcnkit.app.options import add_options
 from mcnkit.app.recording import LIVE_CONST, LiveOptions
 from mcnkit.app.runconfig import resolve_slam_config
@@ -81,7 +82,7 @@ replace the log; an existing --rrd, or an --out folder that is not empty, is rep
 
 
 @dataclass(frozen=True, kw_only=True)
-class SlamOptions(LiveOptions):
+class SlamOptions(LiveOptions, TopicOptions):
     """``mcnkit slam LOG --out DIR [...]``: the filter's settings are the ``slam`` section."""
 
     log: Path
@@ -164,7 +165,9 @@ def run_slam(args: argparse.Namespace) -> int:
     try:
         check_outputs([args.log], [Output(args.out, folder=True), *([Output(rrd)] if rrd is not None else [])],
                       overwrite=getattr(args, "overwrite", False))
-        with SIGNALS.deferred(), open_log(args.log, odometry=config.motion.odometry) as reader:
+        with SIGNALS.deferred(), open_log(args.log, scan_topic=args.scan_topic, odom=args.odom,
+                                          odometry=config.motion.odometry) as reader:
+            info.update(scan_topic=reader.scan_topic, odometry_source=reader.odom_source)
             sinks: list[Sink] = [ProgressSink(_scan_count(reader), enabled=not args.no_progress)]
             if rrd is not None or live is not None:
                 from mcnkit.viz import RerunLogger  # rerun only when asked for
