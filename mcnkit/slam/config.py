@@ -128,6 +128,12 @@ class MatchingConfig:
     """Use one beam out of ``lskip + 1`` when matching [lskip]."""
     minimum_score: float = 0.0
     """A match is accepted only if its score exceeds this, else the odometry pose is kept [minimumScore]."""
+    pinned_ratio: float = 0.0
+    """Keep a match's correction only along the directions its scan pins down: the match's translation away from
+    the predicted pose is kept in full along the direction the score curves most, and along the other in the share
+    ``λ₂ / (pinned_ratio · λ₁)`` (at most 1) of the score's curvatures there, so a scan of two parallel walls (a
+    corridor, a short-range scanner in a hallway) leaves the odometry's step along them, where the score is flat and
+    the climb drifts on its noise.  0: the climb's pose as found (gmapping)."""
     free_check: bool = False
     """Match an end point only to cells whose neighbour one cell back along the beam holds no hit (gmapping
     intends this check but computes the "free" cell with a map-origin offset that puts it far away, so in practice
@@ -153,6 +159,8 @@ class MatchingConfig:
 
     def __post_init__(self) -> None:
         _positive(self, "sigma_m2", "lstep_m", "astep_rad", "lsigma_m2", "self_hit_tolerance_m")
+        if not 0.0 <= self.pinned_ratio <= 1.0:
+            raise ValueError(f"pinned_ratio must be in [0, 1], got {self.pinned_ratio}")
         if self.self_hit_m < 0:
             raise ValueError(f"self_hit_m must be >= 0, got {self.self_hit_m}")
         for name in ("max_range_m", "max_usable_range_m"):

@@ -192,6 +192,47 @@ def _score(
 
 
 @_jit
+def _pinned(
+    maps: MapArrays, win: Window, p: int, x0: float, y0: float, cx: float, cy: float, ct: float, f0: float,
+    beams: Beams, res: float, kernel: int, free_check: bool, sigma: float, lsigma: float, ratio: float,
+) -> tuple[float, float]:
+    """The matched position (cx, cy) with its move from the predicted (x0, y0) kept only along the directions the
+    score pins down (``MatchingConfig.pinned_ratio``): the score's curvature in x and y by central differences of three
+    cells (a one-cell step reads the noise of a flat score as curvature), its two eigen-directions, the weaker one's
+    move scaled by its share of the stronger (over ``ratio``)."""
+    h = 3.0 * res
+    fxp = _score(maps, win, p, cx + h, cy, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    fxm = _score(maps, win, p, cx - h, cy, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    fyp = _score(maps, win, p, cx, cy + h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    fym = _score(maps, win, p, cx, cy - h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    fpp = _score(maps, win, p, cx + h, cy + h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    fmm = _score(maps, win, p, cx - h, cy - h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    fpm = _score(maps, win, p, cx + h, cy - h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    fmp = _score(maps, win, p, cx - h, cy + h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    hxx = -(fxp - 2.0 * f0 + fxm)
+    hyy = -(fyp - 2.0 * f0 + fym)
+    hxy = -(fpp - fpm - fmp + fmm) / 4.0
+    half = 0.5 * (hxx + hyy)
+    disc = math.sqrt(max(0.25 * (hxx - hyy) ** 2 + hxy * hxy, 0.0))
+    l1, l2 = half + disc, half - disc
+    if l1 <= 0.0:
+        return x0, y0  # nothing curves: the scan pins no direction down
+    if abs(hxy) > 1e-12 * l1:
+        v1x, v1y = l1 - hyy, hxy
+        norm = math.hypot(v1x, v1y)
+        v1x, v1y = v1x / norm, v1y / norm
+    elif hxx >= hyy:
+        v1x, v1y = 1.0, 0.0
+    else:
+        v1x, v1y = 0.0, 1.0
+    w2 = min(max(l2 / (ratio * l1), 0.0), 1.0)
+    dx, dy = cx - x0, cy - y0
+    a1 = v1x * dx + v1y * dy
+    a2 = (-v1y * dx + v1x * dy) * w2
+    return x0 + a1 * v1x - a2 * v1y, y0 + a1 * v1y + a2 * v1x
+
+
+@_jit
 def _match_all(
     maps: MapArrays,
     win: Window,
@@ -208,6 +249,7 @@ def _match_all(
     astep: float,
     iterations: int,
     minimum_score: float,
+    pinned_ratio: float,
 ) -> tuple[F64, F64, F64]:
     n = poses.shape[0]
     out = poses.copy()
@@ -259,6 +301,9 @@ def _match_all(
                 break
         scores[j] = best
         if best > minimum_score:
+            if pinned_ratio > 0.0:
+                cx, cy = _pinned(maps, win, p, poses[j, 0], poses[j, 1], cx, cy, ct, best, beams, res, kernel,
+                                 free_check, sigma, lsigma, pinned_ratio)
             out[j, 0], out[j, 1], out[j, 2] = cx, cy, ct
         _, ll = _score(maps, win, p, out[j, 0], out[j, 1], out[j, 2], beams, res, kernel, free_check, sigma, lsigma)
         logliks[j] = ll
@@ -301,9 +346,10 @@ def _args(maps: TiledHitMaps) -> MapArrays:
     return maps.table, maps.tx0, maps.ty0, maps.shift, maps.count, maps.mean_x, maps.mean_y
 
 
-def _settings(m: MatchingConfig) -> tuple[int, bool, float, float, float, float, int, float]:
+def _settings(m: MatchingConfig) -> tuple[int, bool, float, float, float, float, int, float, float]:
     """The matcher's settings in the order :func:`_match_all` takes them."""
-    return m.kernel_size, m.free_check, m.sigma_m2, m.lsigma_m2, m.lstep_m, m.astep_rad, m.iterations, m.minimum_score
+    return (m.kernel_size, m.free_check, m.sigma_m2, m.lsigma_m2, m.lstep_m, m.astep_rad, m.iterations,
+            m.minimum_score, m.pinned_ratio)
 
 
 def _beams(end_xy: F64, back_xy: F64) -> Beams:
