@@ -191,6 +191,11 @@ def _score(
     return _evaluate(maps, win, p, px, py, pt, beams, res, kernel, free_check, sigma, lsigma)
 
 
+_AROUND = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0], [1.0, 1.0], [-1.0, -1.0], [1.0, -1.0],
+                    [-1.0, 1.0]])
+"""The eight neighbours :func:`_pinned` reads the score's curvature from, in steps of h."""
+
+
 @_jit
 def _pinned(
     maps: MapArrays, win: Window, p: int, x0: float, y0: float, cx: float, cy: float, ct: float, f0: float,
@@ -201,14 +206,11 @@ def _pinned(
     cells (a one-cell step reads the noise of a flat score as curvature), its two eigen-directions, the weaker one's
     move scaled by its share of the stronger (over ``ratio``)."""
     h = 3.0 * res
-    fxp = _score(maps, win, p, cx + h, cy, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
-    fxm = _score(maps, win, p, cx - h, cy, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
-    fyp = _score(maps, win, p, cx, cy + h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
-    fym = _score(maps, win, p, cx, cy - h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
-    fpp = _score(maps, win, p, cx + h, cy + h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
-    fmm = _score(maps, win, p, cx - h, cy - h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
-    fpm = _score(maps, win, p, cx + h, cy - h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
-    fmp = _score(maps, win, p, cx - h, cy + h, ct, beams, res, kernel, free_check, sigma, lsigma)[0]
+    f = np.empty(8)  # at (+x, -x, +y, -y, ++, --, +-, -+) · h
+    for k in range(8):
+        f[k] = _score(maps, win, p, cx + h * _AROUND[k, 0], cy + h * _AROUND[k, 1], ct, beams, res, kernel,
+                      free_check, sigma, lsigma)[0]
+    fxp, fxm, fyp, fym, fpp, fmm, fpm, fmp = f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7]
     hxx = -(fxp - 2.0 * f0 + fxm)
     hyy = -(fyp - 2.0 * f0 + fym)
     hxy = -(fpp - fpm - fmp + fmm) / 4.0
