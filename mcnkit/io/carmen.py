@@ -38,9 +38,10 @@ SLAM-corrected pose (kept as ground truth) and the raw odometry is rebuilt by ch
 ``inverse(corrected_k) ⊕ (last ODOM pose before scan k+1)``, starting from the first corrected pose.
 
 **Motion no robot makes**: where a scan's stamp had to be rebuilt, its stamps carry no time to judge a speed by,
-so an odometry step into or out of it longer than ``STEP_SLACK_M`` (2 m) or turning more than ``TURN_SLACK_RAD``
-(1 rad) is read as unknown motion (``Frame.odom_known`` False), counted in one warning: a misparsed line must not
-carry the robot 20 m between two scans.  Other steps are judged by :mod:`mcnkit.io.plausible` from the stamps.
+so an odometry step into or out of it longer than ``STEP_SLACK_M`` (2 m), or four times the log's median step
+where that is longer (:func:`~mcnkit.io.carmen_scans.untimed_step_limit_m`), is read as unknown motion
+(``Frame.odom_known`` False), counted in one warning: a misparsed line must not carry the robot 20 m between two
+scans.  Its turn is not judged: without time, a robot may turn in place by any angle between two scans.  Other steps are judged by :mod:`mcnkit.io.plausible` from the stamps.
 
 **Memory**: the log is read line by line, twice (once to find the scanner, the stamps and the odometry, once per
 pass over the frames), holding about 80 bytes per laser line and 32 per ``ODOM`` line, and the readings only

@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from mcnkit.geometry import compose, relative, wrap_angle
+from mcnkit.geometry import compose, relative
 from mcnkit.io.errors import LogError
-from mcnkit.io.plausible import MAX_RANGE_M, STEP_SLACK_M, TURN_SLACK_RAD, step_possible
+from mcnkit.io.plausible import MAX_RANGE_M, STEP_SLACK_M, step_possible
 from mcnkit.types import Pose2D
 
 __all__ = ["OdomStream", "RangeStats", "ScanTable", "impossible_steps", "is_corrected_variant",
-           "odometry_from_stream", "rebuild_raw_odometry"]
+           "odometry_from_stream", "rebuild_raw_odometry", "untimed_step_limit_m"]
 
 _NO_STAMP = -(2**63)
 _MAX_DISTINCT = 1 << 20  # distinct high readings kept exactly (real logs hold a few thousand)
@@ -182,6 +182,20 @@ def is_corrected_variant(poses: NDArray[np.float64] | None, first_after: NDArray
     return int(hits.sum()) >= 0.9 * int(has.sum())
 
 
+UNTIMED_STEP_FACTOR = 4.0
+"""How many times the log's median step a step between scans whose stamps carry no time may be (at least
+``STEP_SLACK_M``): such logs keep one scan per metre or per few metres, and a damaged line moves the robot tens."""
+
+
+def untimed_step_limit_m(step_lengths_m: NDArray[np.float64]) -> float:
+    """The longest step between two scans whose stamps carry no time that is read as a move: ``STEP_SLACK_M``, or
+    ``UNTIMED_STEP_FACTOR`` times the median of the log's steps where its scans lie farther apart (Örebro keeps one
+    scan per 2-3 m, and its odometry agrees with the corrected poses there within a few centimetres)."""
+    moved = np.asarray(step_lengths_m, np.float64)
+    moved = moved[np.isfinite(moved) & (moved > 1e-6)]
+    return max(STEP_SLACK_M, UNTIMED_STEP_FACTOR * float(np.median(moved))) if len(moved) else STEP_SLACK_M
+
+
 def rebuild_raw_odometry(corrected: NDArray[np.float64], odom_index: NDArray[np.int64], odom: OdomStream,
                          stamps: NDArray[np.int64], rebuilt: NDArray[np.bool_]
                          ) -> tuple[NDArray[np.float64], int, NDArray[np.bool_]]:
@@ -192,22 +206,28 @@ def rebuild_raw_odometry(corrected: NDArray[np.float64], odom_index: NDArray[np.
     It is not where the gap between two scans holds no ODOM line but the re-anchoring one (the previous scan's
     corrected pose itself) or none at all: those logs dropped the raw odometry there (Örebro, parts of Seattle),
     so the robot's motion is unknown, not zero.  Damaged increments are unknown too; an increment into or out of
-    a scan whose stamp was rebuilt (``rebuilt``) is judged by its length alone (its stamps carry no time)."""
+    a scan whose stamp was rebuilt (``rebuilt``) is judged by its length alone (its stamps carry no time), against
+    :func:`untimed_step_limit_m`."""
     poses = odom.pose_array()
     out = np.empty_like(corrected)
     out[0] = corrected[0] if np.isfinite(corrected[0]).all() else 0.0
     known = np.ones(len(corrected), dtype=bool)
     bad = 0
     zero = Pose2D()
+    linked = odom_index[1:] >= 0
+    limit_m = untimed_step_limit_m(np.hypot(*relative(corrected[:-1][linked], poses[odom_index[1:][linked]])[:, :2].T))
     for k in range(len(corrected) - 1):
         j = int(odom_index[k + 1])
         increment = relative(corrected[k], poses[j]) if j >= 0 else np.zeros(3)
         anchor_only = j == odom_index[k] + 1 and bool(np.all(np.abs(increment) < 1e-6))
-        t0, t1 = (0, 0) if rebuilt[k] or rebuilt[k + 1] else (int(stamps[k]), int(stamps[k + 1]))
+        if rebuilt[k] or rebuilt[k + 1]:  # no time between them: any turn in place fits, a drive only so far
+            possible = bool(np.hypot(increment[0], increment[1]) <= limit_m)
+        else:
+            possible = step_possible(int(stamps[k]), zero, int(stamps[k + 1]), Pose2D.from_array(increment))
         if j <= odom_index[k] or anchor_only:
             known[k + 1] = False
             increment = np.zeros(3)
-        elif not (np.isfinite(increment).all() and step_possible(t0, zero, t1, Pose2D.from_array(increment))):
+        elif not (np.isfinite(increment).all() and possible):
             bad += 1
             known[k + 1] = False
             increment = np.zeros(3)
@@ -217,16 +237,17 @@ def rebuild_raw_odometry(corrected: NDArray[np.float64], odom_index: NDArray[np.
 
 def impossible_steps(odom: NDArray[np.float64], rebuilt: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """Per scan: the odometry step from the scan before is one no robot makes although one of the two stamps was
-    rebuilt (so they carry no time to judge a speed by): longer than ``STEP_SLACK_M`` or turning more than
-    ``TURN_SLACK_RAD``.  Steps between stamps that carry time are judged by :mod:`mcnkit.io.plausible`."""
+    rebuilt (so they carry no time to judge a speed by): longer than :func:`untimed_step_limit_m`.  A turn is not judged:
+    without time a robot may turn in place by any angle between two scans (the corrected Radish logs keep one scan
+    per metre or per turn, 80° apart where the robot turned at a corridor's end).  Steps between stamps that carry
+    time are judged by :mod:`mcnkit.io.plausible`."""
     out = np.zeros(len(odom), dtype=bool)
     if len(odom) < 2:
         return out
     step = np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1]))
-    turn = np.abs(wrap_angle(np.diff(odom[:, 2])))
     judged = rebuilt[1:] | rebuilt[:-1]
     with np.errstate(invalid="ignore"):
-        out[1:] = judged & ((step > STEP_SLACK_M) | (turn > TURN_SLACK_RAD))
+        out[1:] = judged & ~(step <= untimed_step_limit_m(step))
     return out
 
 

@@ -250,3 +250,48 @@ def test_a_misparsed_corrected_line_does_not_carry_the_robot_away(tmp_path: Path
             frames = list(log.frames())
     odom = np.array([f.odom.as_array() for f in frames])
     assert np.abs(np.diff(odom[:, :2], axis=0)).max() < 1.0  # no step beyond the robot's own half metre
+
+
+def test_a_turn_in_place_between_scans_whose_stamps_carry_no_time_is_kept_as_odometry(tmp_path: Path) -> None:
+    # Radish corrected layout with every stamp equal (rebuilt in log order): such logs keep one scan per metre or
+    # per turn, so the robot may turn 80 degrees in place between two scans; only a step's length is judged there
+    headings = [0.0] * 6 + [1.4] * (N_SCANS - 6)
+    xy = [np.array([1.0, 5.0])]
+    for k in range(1, N_SCANS):
+        xy.append(xy[-1] + (0.0 if k == 6 else 0.5) * np.array([math.cos(headings[k]), math.sin(headings[k])]))
+    lines = []
+    for k in range(N_SCANS):
+        (x, y), th = xy[k], headings[k]
+        if k:
+            lines.append(f"ODOM {x - 0.02:.3f} {y + 0.01:.3f} {th + 0.003:.3f} 0 0 0 7.0 host 7.0")  # raw, a bit off
+        lines.append(f"FLASER 181 {' '.join(_ranges(1.0))} {x:.3f} {y:.3f} {th} {x:.3f} {y:.3f} {th} 7.0 host 7.0")
+        lines.append(f"ODOM {x:.3f} {y:.3f} {th} 0 0 0 7.0 host 7.0")  # re-anchored at the corrected pose
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LogWarning)
+        with open_log(_write(tmp_path, lines)) as log:
+            frames = list(log.frames())
+    messages = [str(w.message) for w in caught if issubclass(w.category, LogWarning)]
+    assert not any("cannot make" in m for m in messages)
+    assert all(f.odom_known for f in frames)
+    odom = np.array([f.odom.as_array() for f in frames])
+    assert abs(odom[6, 2] - odom[5, 2] - 1.4) < 0.01  # the turn is the odometry's own
+    assert np.hypot(*(odom[6, :2] - odom[5, :2])) < 0.05
+
+
+def test_a_log_that_keeps_one_scan_every_3_m_is_read_with_its_odometry_but_a_damaged_line_is_not(tmp_path: Path) -> None:
+    # Radish corrected layout, every stamp equal: the robot drives 3 m between scans (as Örebro's log keeps them);
+    # the step's length is judged against the log's own steps, so only scan 6's line, shifted 40 m, is refused
+    lines = []
+    for k in range(N_SCANS):
+        x = 1.0 + 3.0 * k + (40.0 if k == 6 else 0.0)
+        if k:
+            lines.append(f"ODOM {x - 0.02:.3f} 5.01 0.003 0 0 0 7.0 host 7.0")
+        lines.append(f"FLASER 181 {' '.join(_ranges(1.0))} {x} 5 0 {x} 5 0 7.0 host 7.0")
+        lines.append(f"ODOM {x} 5 0 0 0 0 7.0 host 7.0")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LogWarning)
+        with open_log(_write(tmp_path, lines)) as log:
+            known = [f.odom_known for f in log.frames()]
+    messages = [str(w.message) for w in caught if issubclass(w.category, LogWarning)]
+    assert [k for k, ok in enumerate(known) if not ok] == [6, 7]
+    assert any("2 odometry increment(s) a robot cannot make" in m for m in messages)
