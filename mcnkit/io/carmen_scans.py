@@ -213,26 +213,32 @@ def rebuild_raw_odometry(corrected: NDArray[np.float64], odom_index: NDArray[np.
     out[0] = corrected[0] if np.isfinite(corrected[0]).all() else 0.0
     known = np.ones(len(corrected), dtype=bool)
     bad = 0
-    zero = Pose2D()
-    linked = odom_index[1:] >= 0
-    limit_m = untimed_step_limit_m(np.hypot(*relative(corrected[:-1][linked], poses[odom_index[1:][linked]])[:, :2].T))
+    # the increment into each scan from the corrected pose of the one before (zero where no ODOM line follows it)
+    increments = np.zeros_like(corrected)
+    linked = np.flatnonzero(odom_index[1:] >= 0)
+    increments[linked + 1] = relative(corrected[linked], poses[odom_index[linked + 1]])
+    limit_m = untimed_step_limit_m(np.hypot(increments[linked + 1, 0], increments[linked + 1, 1]))
     for k in range(len(corrected) - 1):
         j = int(odom_index[k + 1])
-        increment = relative(corrected[k], poses[j]) if j >= 0 else np.zeros(3)
-        anchor_only = j == odom_index[k] + 1 and bool(np.all(np.abs(increment) < 1e-6))
-        if rebuilt[k] or rebuilt[k + 1]:  # no time between them: any turn in place fits, a drive only so far
-            possible = bool(np.hypot(increment[0], increment[1]) <= limit_m)
-        else:
-            possible = step_possible(int(stamps[k]), zero, int(stamps[k + 1]), Pose2D.from_array(increment))
-        if j <= odom_index[k] or anchor_only:
-            known[k + 1] = False
+        increment = increments[k + 1]
+        if j <= odom_index[k] or (j == odom_index[k] + 1 and bool(np.all(np.abs(increment) < 1e-6))):
+            known[k + 1] = False  # no ODOM line between them but the re-anchoring one: the motion is unknown
             increment = np.zeros(3)
-        elif not (np.isfinite(increment).all() and possible):
+        elif not (np.isfinite(increment).all() and _increment_possible(increment, k, stamps, rebuilt, limit_m)):
             bad += 1
             known[k + 1] = False
             increment = np.zeros(3)
         out[k + 1] = compose(out[k], increment)
     return out, bad, known
+
+
+def _increment_possible(increment: NDArray[np.float64], k: int, stamps: NDArray[np.int64], rebuilt: NDArray[np.bool_],
+                        limit_m: float) -> bool:
+    """Whether a robot can make the odometry ``increment`` between scans ``k`` and ``k + 1``: by its speed where both
+    stamps carry time, else (a rebuilt stamp) by its length alone, any turn in place fitting between them."""
+    if rebuilt[k] or rebuilt[k + 1]:
+        return bool(np.hypot(increment[0], increment[1]) <= limit_m)
+    return step_possible(int(stamps[k]), Pose2D(), int(stamps[k + 1]), Pose2D.from_array(increment))
 
 
 def impossible_steps(odom: NDArray[np.float64], rebuilt: NDArray[np.bool_]) -> NDArray[np.bool_]:
