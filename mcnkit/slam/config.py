@@ -83,6 +83,13 @@ class MotionConfig:
     unknown_window_rad: float = math.pi
     """Heading window (±) of that search, at most (π: any turn; the search is exact branch and bound, so only its
     cost grows; it shrinks like ``unknown_window_m``)."""
+    unseen_explains: float = 0.0
+    """In the search for a scan's motion where no odometry gives it, how much a return that lands where no scan has
+    looked yet explains (0 to 1; a return on a mapped wall explains 1, one in space the scans saw free 0).  0 scores
+    it as if it fell in free space, so a scan that reaches past the map's edge (a robot driving into new ground) can
+    lose to a look-alike pose that folds it back onto mapped walls; 0.5, the ternary maps' unknown, neither confirms
+    nor contradicts a pose, but also leaves unpunished a pose that puts returns behind a wall (docs/slam.md,
+    *Without odometry*, says what each costs on which logs)."""
     prior_window: int = 50
     """Steps over which the motion prior (:class:`mcnkit.slam.scanmotion.MotionPrior`) measures how well constant
     velocity and constant step predict this log's tracked motion, and how far off they are."""
@@ -94,6 +101,8 @@ class MotionConfig:
     def __post_init__(self) -> None:
         if self.odometry not in ("use", "ignore"):
             raise ValueError(f"odometry must be 'use' or 'ignore', got {self.odometry!r}")
+        if not 0.0 <= self.unseen_explains <= 1.0:
+            raise ValueError(f"unseen_explains must be in [0, 1], got {self.unseen_explains}")
         _positive(self, "unknown_window_m", "unknown_window_rad", "prior_window", "prior_min_sigma_m",
                   "prior_min_sigma_rad")
         for name in ("srr", "srt", "str_", "stt"):

@@ -31,7 +31,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LikelihoodGrid", "ScanMatch", "angular_step", "likelihood_grid", "match_scan", "thin_points"]
+__all__ = ["LikelihoodGrid", "ScanMatch", "angular_step", "likelihood_grid", "match_scan", "thin_points", "with_unseen"]
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]
@@ -156,6 +156,22 @@ def likelihood_grid(
     for k in range(1, depth + 1):
         levels.append(_max_level(levels[-1], 1 << (k - 1)))
     return LikelihoodGrid(x0, y0, res, tuple(levels), hits)
+
+
+def with_unseen(grid: LikelihoodGrid, seen: NDArray[np.bool_], value: float) -> LikelihoodGrid:
+    """``grid`` with every cell no scan has seen (``seen`` (H, W) False, on the grid's cells) explaining an end point
+    at least ``value``: a return that lands where the map knows nothing is neither confirmed nor contradicted
+    (the ternary maps' unknown 0.5), where the plain field calls it unexplained, as it calls a return in space the
+    scans saw free.  Without this a scan that reaches past the map's edge scores below a pose that folds it back
+    onto walls already mapped, and a look-alike pose a quarter turn off beats the true one."""
+    field = grid.levels[0]
+    if seen.shape != field.shape:
+        raise ValueError(f"seen mask {seen.shape} is not on the grid's {field.shape} cells")
+    lifted = np.where(seen, field, np.maximum(field, np.float32(value))).astype(np.float32)
+    levels = [lifted]
+    for k in range(1, len(grid.levels)):
+        levels.append(_max_level(levels[-1], 1 << (k - 1)))
+    return LikelihoodGrid(grid.origin_x_m, grid.origin_y_m, grid.resolution_m, tuple(levels), grid.hits)
 
 
 def angular_step(points_xy: F64, resolution_m: float, max_step_rad: float = math.radians(1.0)) -> float:

@@ -48,6 +48,7 @@ from mcnkit.grid import log_odds_to_ternary
 from mcnkit.slam.config import SlamConfig
 from mcnkit.slam.correlative import LikelihoodGrid
 from mcnkit.slam.deskew import deskew_ranges
+from mcnkit.slam.lineage import LineageMap
 from mcnkit.slam.loops import LoopCloser
 from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.motion import MotionNoise, NoiseScale, motion_std, sample_motion
@@ -58,7 +59,7 @@ from mcnkit.slam.resample import effective_sample_size, low_variance_resample, n
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.slam.scanmotion import MotionGuess, MotionPrior, motion_covariance, sample_increments
 from mcnkit.slam.selfhits import SelfHits
-from mcnkit.slam.widesearch import tracking_grid, unknown_motion_match, wide_match
+from mcnkit.slam.widesearch import seen_grid, tracking_grid, unknown_motion_match, wide_match
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
 __all__ = ["FastSlam", "LogLikelihoodHook", "SlamStep", "counts_to_grid"]
@@ -166,6 +167,10 @@ class FastSlam:
         self._update_hits: list[F64] = []  # hit points (M, 2) of every update scan, base frame
         self._update_tracked: list[F64] = []  # the online pose at every update (where tracking restarts)
         self._grid: LikelihoodGrid | None = None  # the best particle's map near the robot, for the wide search
+        # the same with the cells no scan has seen explaining motion.unseen_explains, for the unknown-motion search
+        # (made when first needed after each update), and the best particle's ray-cast counts it is read from
+        self._grid_seen: LikelihoodGrid | None = None
+        self._seen: LineageMap | None = None
         self.loops = LoopCloser(config, config.resolution_m)
         """The pose graph over the filter updates that closes loops (see :mod:`mcnkit.slam.loops`)."""
         self.extra_log_likelihood: LogLikelihoodHook | None = None
@@ -448,7 +453,7 @@ class FastSlam:
         end_b, back_b, _ = beams
         if self._grid is not None:
             reach = self.prior.reach(cfg.motion.unknown_window_m, cfg.motion.unknown_window_rad)
-            found = unknown_motion_match(self._grid, before, guess, reach, end_b, cfg, density=usual)
+            found = unknown_motion_match(self._search_grid(), before, guess, reach, end_b, cfg, density=usual)
             if found is not None:
                 start = found
         tracked = match_scans_to_map(self.maps, self.best_index, start[None, :], [(end_b, back_b)], cfg)[0]
@@ -458,6 +463,25 @@ class FastSlam:
         # the particles spread by what the match leaves open, never wider than the motion model for that motion
         spread = np.minimum(guess.sigma, np.maximum(motion_std(relative(before, tracked), self._noise), self.prior.min_sigma))
         return tracked, motion_covariance(info, float(before[2]), spread)
+
+    def _search_grid(self) -> LikelihoodGrid:
+        """The wide-search grid of the unknown-motion search: :attr:`_grid`, with ``motion.unseen_explains`` the
+        cells that none of the best particle's update scans has passed through or ended in explaining that much
+        (:func:`mcnkit.slam.widesearch.seen_grid`).  The counts are kept by differences
+        (:class:`~mcnkit.slam.lineage.LineageMap`) and the grid made once per filter update, when first needed."""
+        assert self._grid is not None and self._lidar is not None
+        cfg = self.config
+        if cfg.motion.unseen_explains <= 0.0:
+            return self._grid
+        if self._grid_seen is None:
+            if self._seen is None:
+                max_range, usable = self.beam_limits()
+                self._seen = LineageMap(cfg.wide.resolution_m, self._lidar.angles_rad,
+                                        self._lidar.base_to_laser.as_array(), max_range_m=max_range,
+                                        usable_m=usable, occ_thresh=cfg.map.occ_thresh)
+            self._seen.sync(self.update_poses(self.best_index), self._update_ranges)
+            self._grid_seen = seen_grid(self._grid, self._seen, cfg.motion.unseen_explains)
+        return self._grid_seen
 
     def _update(self, frame: Frame, first: bool, beams: tuple[F64, F64, F64], tracked: F64) -> tuple[bool, F64 | None]:
         cfg = self.config
@@ -529,6 +553,7 @@ class FastSlam:
         self._update_tracked.append(self.poses[best].copy())
         if cfg.wide.search:
             self._grid = tracking_grid(self.maps, best, self.poses[best], cfg)
+            self._grid_seen = None
         return resampled, scores
 
     def _reanchor(self, corrected: F64) -> None:

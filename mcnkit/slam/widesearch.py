@@ -28,11 +28,12 @@ from numpy.typing import NDArray
 
 from mcnkit.geometry import compose, relative
 from mcnkit.slam.config import SlamConfig
-from mcnkit.slam.correlative import LikelihoodGrid, angular_step, likelihood_grid, match_scan, thin_points
+from mcnkit.slam.correlative import LikelihoodGrid, angular_step, likelihood_grid, match_scan, thin_points, with_unseen
+from mcnkit.slam.lineage import LineageMap
 from mcnkit.slam.maps import TiledHitMaps
 from mcnkit.slam.scanmotion import MotionGuess, outlier_share
 
-__all__ = ["tracking_grid", "unknown_motion_match", "wide_match", "wide_window"]
+__all__ = ["seen_grid", "tracking_grid", "unknown_motion_match", "wide_match", "wide_window"]
 
 F64 = NDArray[np.float64]
 
@@ -93,6 +94,29 @@ def wide_match(
     if near.score < config.wide.min_score:
         return None
     return near.pose, False
+
+
+def seen_grid(grid: LikelihoodGrid, seen: LineageMap, unseen_explains: float) -> LikelihoodGrid:
+    """``grid`` with the cells that no scan of ``seen`` (the same particle's map as ray-cast counts, on cells of the
+    grid's size) has passed through or ended in explaining ``unseen_explains``
+    (:func:`mcnkit.slam.correlative.with_unseen`); ``grid`` itself when that is 0."""
+    if unseen_explains <= 0.0:
+        return grid
+    res = grid.resolution_m
+    if not math.isclose(seen.resolution_m, res):
+        raise ValueError(f"the seen map's cells ({seen.resolution_m} m) are not the grid's ({res} m)")
+    h, w = grid.shape
+    mask = np.zeros((h, w), bool)
+    sh, sw = seen.hits.shape
+    # grid cell (row, col) is seen cell (row + dy, col + dx)
+    dx = int(round(grid.origin_x_m / res)) - seen.ix0
+    dy = int(round(grid.origin_y_m / res)) - seen.iy0
+    r0, r1 = max(0, -dy), min(h, sh - dy)
+    c0, c1 = max(0, -dx), min(w, sw - dx)
+    if r0 < r1 and c0 < c1:
+        rows, cols = slice(r0 + dy, r1 + dy), slice(c0 + dx, c1 + dx)
+        mask[r0:r1, c0:c1] = (seen.hits[rows, cols] > 0) | (seen.passes[rows, cols] > 0)
+    return with_unseen(grid, mask, unseen_explains)
 
 
 def unknown_motion_match(grid: LikelihoodGrid, before: F64, guess: MotionGuess, reach: tuple[float, float],

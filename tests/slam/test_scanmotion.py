@@ -11,9 +11,10 @@ import pytest
 from mcnkit.geometry import compose, relative
 from mcnkit.slam import FastSlam, SlamConfig
 from mcnkit.slam.config import LoopsConfig, MotionConfig
-from mcnkit.slam.correlative import likelihood_grid
+from mcnkit.slam.correlative import LikelihoodGrid, likelihood_grid, with_unseen
+from mcnkit.slam.lineage import LineageMap
 from mcnkit.slam.scanmotion import MotionGuess, MotionPrior, motion_covariance, outlier_share, sample_increments
-from mcnkit.slam.widesearch import unknown_motion_match
+from mcnkit.slam.widesearch import seen_grid, unknown_motion_match
 from mcnkit.types import Frame, Pose2D, Scan
 from tests.slam.test_fastslam import LIDAR, cast, drifting_odometry, true_path
 
@@ -186,17 +187,59 @@ def test_a_prior_tighter_than_a_search_cell_still_beats_a_look_alike() -> None:
     assert np.hypot(found[0], found[1]) < 0.15 and abs(found[2]) < math.radians(3)
 
 
+def test_a_scan_reaching_into_new_ground_is_not_folded_back_onto_mapped_walls() -> None:
+    # the robot sees a mapped wall beside it (S1) and, ahead, a wall no scan has looked at yet (S2).  Elsewhere the
+    # map holds a wall like S2, where a look-alike pose lays S2 on it and S1 in space the scans saw free.  Counted
+    # as unexplained, the unseen returns make the look-alike win; counted as unknown (neither), the true pose wins
+    s1 = np.c_[np.arange(0.0, 3.0, 0.05), np.full(60, 1.0)]
+    s2 = np.c_[np.full(120, 4.0), np.arange(-3.0, 3.0, 0.05)]
+    look_alike = np.array([-2.5, -0.5, 0.3])
+    hits = np.r_[s1, compose(look_alike, np.c_[s2, np.zeros(len(s2))])[:, :2]] + 0.013
+    grid = likelihood_grid(hits, 0.1, 0.15, 1.0, depth=5)
+    cols = grid.origin_x_m + (np.arange(grid.shape[1]) + 0.5) * grid.resolution_m
+    seen = np.broadcast_to(cols < 3.5, grid.shape)  # nothing beyond x = 3.5 m seen yet
+    scan = np.r_[s1, s2] + 0.013  # the robot at the origin
+    before, guess = np.array([-1.0, 0.0, 0.0]), MotionGuess(np.array([1.0, 0.0, 0.0]), np.array([2.0, 2.0, 1.0]))
+    cfg = SlamConfig()
+    folded = unknown_motion_match(grid, before, guess, (4.0, math.pi), scan, cfg, density=False)
+    assert folded is not None and np.hypot(folded[0], folded[1]) > 1.0 and abs(folded[2] - look_alike[2]) < 0.05
+    found = unknown_motion_match(with_unseen(grid, seen, 0.5), before, guess, (4.0, math.pi), scan, cfg, density=False)
+    assert found is not None and np.hypot(found[0], found[1]) < 0.15 and abs(found[2]) < math.radians(1.5)
+
+
+def test_the_cells_no_scan_has_seen_are_read_from_the_particles_ray_cast_counts() -> None:
+    # one scan of three beams 2 m long from the origin: the cells along them are seen, the cells behind are not
+    seen = LineageMap(0.1, np.array([-0.5, 0.0, 0.5]), np.zeros(3), max_range_m=10.0, usable_m=10.0, occ_thresh=0.25)
+    seen.sync(np.zeros((1, 3)), [np.full(3, 2.0, np.float32)])
+    grid = likelihood_grid(np.array([[-4.0, -4.0], [4.0, 4.0]]), 0.1, 0.15, 1.0, depth=5)
+    lifted = seen_grid(grid, seen, 0.5)
+
+    def at(g: LikelihoodGrid, x: float, y: float) -> float:
+        col = int((x - g.origin_x_m) / g.resolution_m)
+        row = int((y - g.origin_y_m) / g.resolution_m)
+        return float(g.levels[0][row, col])
+
+    assert at(lifted, 1.05, 0.05) == at(grid, 1.05, 0.05) == 0.0  # along a beam: seen free, explains nothing
+    assert at(lifted, 2.05, 0.05) == at(grid, 2.05, 0.05)  # the beam's end
+    assert at(lifted, -2.05, 0.05) == 0.5 and at(grid, -2.05, 0.05) == 0.0  # behind the scanner: unseen
+    assert at(lifted, -3.95, -3.95) == at(grid, -3.95, -3.95) > 0.5  # a hit explains more than unknown space
+    assert all(np.all(up >= low) for up, low in zip(lifted.levels[1:], lifted.levels[:-1], strict=True))  # upper bounds
+    assert seen_grid(grid, seen, 0.0) is grid
+
+
 def _frames(truth: np.ndarray, odom: np.ndarray, seed: int, dt_ns: int = 10**8) -> list[Frame]:
     rng = np.random.default_rng(seed)
     return [Frame(k * dt_ns, Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))
             for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
 
 
+@pytest.mark.parametrize("unseen", [0.0, 0.5], ids=["unseen explains nothing", "unseen explains half"])
 @pytest.mark.parametrize("every", [1, 8], ids=["10 Hz, 0.1 m steps", "one scan per 0.8 m"])
-def test_the_room_is_mapped_from_its_scans_alone_with_the_odometry_ignored(every: int) -> None:
+def test_the_room_is_mapped_from_its_scans_alone_with_the_odometry_ignored(every: int, unseen: float) -> None:
     truth = true_path()[::every]
     frames = _frames(truth, drifting_odometry(truth, np.random.default_rng(7)), 7)
-    slam = FastSlam(SlamConfig(n_particles=10, motion=MotionConfig(odometry="ignore")), np.random.default_rng(0))
+    motion = MotionConfig(odometry="ignore", unseen_explains=unseen)
+    slam = FastSlam(SlamConfig(n_particles=10, motion=motion), np.random.default_rng(0))
     for f in frames:
         slam.step(f)
     assert slam.lidar_only and slam.n_unknown_motion == len(frames) - 1 and slam.odometry_note() is None
@@ -226,3 +269,8 @@ def test_odometry_that_slips_falls_back_to_the_motion_from_the_scans_and_is_coun
     assert note is not None and f"{slam.n_odometry_rejected} contradicted by the scans" in note
     est = slam.trajectory().poses
     assert np.hypot(*(est[-1, :2] - truth[-1][:2])) < 0.1  # the odometry ends 3 m ahead
+
+
+def test_what_an_unseen_return_explains_is_a_share() -> None:
+    with pytest.raises(ValueError, match="unseen_explains"):
+        MotionConfig(unseen_explains=1.5)

@@ -118,7 +118,7 @@ def test_every_slam_config_field_has_a_flag_with_help() -> None:
     slam = add_slam_parser(parser.add_subparsers(required=True))
     options = {a.dest: a for a in slam._actions}
     leaves = list(_leaves(SlamConfig))
-    assert len(leaves) == 95
+    assert len(leaves) == 96
     for dest, flag in leaves:
         action = options[dest]
         assert flag in action.option_strings
