@@ -83,13 +83,13 @@ class MotionConfig:
     unknown_window_rad: float = math.pi
     """Heading window (±) of that search, at most (π: any turn; the search is exact branch and bound, so only its
     cost grows; it shrinks like ``unknown_window_m``)."""
-    unseen_explains: float = 0.0
-    """In the search for a scan's motion where no odometry gives it, how much a return that lands where no scan has
-    looked yet explains (0 to 1; a return on a mapped wall explains 1, one in space the scans saw free 0).  0 scores
-    it as if it fell in free space, so a scan that reaches past the map's edge (a robot driving into new ground) can
-    lose to a look-alike pose that folds it back onto mapped walls; 0.5, the ternary maps' unknown, neither confirms
-    nor contradicts a pose, but also leaves unpunished a pose that puts returns behind a wall (docs/slam.md,
-    *Without odometry*, says what each costs on which logs)."""
+    unseen_explains: float = 0.5
+    """In the search for a scan's motion where the log holds no odometry for it, how much a return that lands where
+    no scan has looked yet explains (0 to 1; a return on a mapped wall explains 1, one in space the scans saw free
+    0).  0.5, the ternary maps' unknown, neither confirms nor contradicts a pose, so a scan that reaches past the
+    map's edge (a robot driving into new ground) is not beaten by a look-alike pose that folds it back onto mapped
+    walls; it also leaves unpunished a pose that puts returns behind a wall.  0 scores such a return as one in
+    space seen free (docs/slam.md, *Without odometry*, says what each costs on which logs)."""
     prior_window: int = 50
     """Steps over which the motion prior (:class:`mcnkit.slam.scanmotion.MotionPrior`) measures how well constant
     velocity and constant step predict this log's tracked motion, and how far off they are."""

@@ -442,8 +442,9 @@ class FastSlam:
         ``motion.unknown_window_m``), then hill-climbed; its spread is the match's uncertainty combined with the
         prior's (:func:`mcnkit.slam.scanmotion.motion_covariance`).  ``usual``: the step is one of the robot's usual
         ones (the log holds no odometry for it), so the density of its recent steps weighs the poses
-        (:func:`~mcnkit.slam.widesearch.unknown_motion_match`); off where the scans contradicted the odometry, a
-        slip or a jump, which the robot's usual steps do not foretell."""
+        (:func:`~mcnkit.slam.widesearch.unknown_motion_match`) and the returns where no scan has looked count as
+        ``motion.unseen_explains`` (:meth:`_search_grid`); off where the scans contradicted the odometry, a slip or
+        a jump, which the robot's usual steps do not foretell."""
         cfg = self.config
         prior_cov = np.diag(guess.sigma**2)
         if not cfg.matching.track_every_scan:
@@ -453,7 +454,8 @@ class FastSlam:
         end_b, back_b, _ = beams
         if self._grid is not None:
             reach = self.prior.reach(cfg.motion.unknown_window_m, cfg.motion.unknown_window_rad)
-            found = unknown_motion_match(self._search_grid(), before, guess, reach, end_b, cfg, density=usual)
+            grid = self._search_grid() if usual else self._grid  # a slip or jump: the map as it stands
+            found = unknown_motion_match(grid, before, guess, reach, end_b, cfg, density=usual)
             if found is not None:
                 start = found
         tracked = match_scans_to_map(self.maps, self.best_index, start[None, :], [(end_b, back_b)], cfg)[0]
