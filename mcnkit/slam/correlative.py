@@ -125,6 +125,14 @@ def _stamp(hits: NDArray[np.bool_], kernel: F32) -> F32:
     return out
 
 
+def _levels(field: F32, depth: int) -> tuple[F32, ...]:
+    """``field`` and its ``depth`` max-pooled precomputation levels (see :class:`LikelihoodGrid`)."""
+    levels = [field]
+    for k in range(1, depth + 1):
+        levels.append(_max_level(levels[-1], 1 << (k - 1)))
+    return tuple(levels)
+
+
 def likelihood_grid(
     points_xy: F64, resolution_m: float, sigma_m: float, margin_m: float, depth: int = 6
 ) -> LikelihoodGrid:
@@ -152,10 +160,7 @@ def likelihood_grid(
     offsets = np.arange(-radius, radius + 1) * res
     kernel = np.exp(-0.5 * (offsets[:, None] ** 2 + offsets[None, :] ** 2) / sigma_m**2).astype(np.float32)
     field = _stamp(hits, kernel)
-    levels = [field]
-    for k in range(1, depth + 1):
-        levels.append(_max_level(levels[-1], 1 << (k - 1)))
-    return LikelihoodGrid(x0, y0, res, tuple(levels), hits)
+    return LikelihoodGrid(x0, y0, res, _levels(field, depth), hits)
 
 
 def with_unseen(grid: LikelihoodGrid, seen: NDArray[np.bool_], value: float) -> LikelihoodGrid:
@@ -168,10 +173,8 @@ def with_unseen(grid: LikelihoodGrid, seen: NDArray[np.bool_], value: float) -> 
     if seen.shape != field.shape:
         raise ValueError(f"seen mask {seen.shape} is not on the grid's {field.shape} cells")
     lifted = np.where(seen, field, np.maximum(field, np.float32(value))).astype(np.float32)
-    levels = [lifted]
-    for k in range(1, len(grid.levels)):
-        levels.append(_max_level(levels[-1], 1 << (k - 1)))
-    return LikelihoodGrid(grid.origin_x_m, grid.origin_y_m, grid.resolution_m, tuple(levels), grid.hits)
+    return LikelihoodGrid(grid.origin_x_m, grid.origin_y_m, grid.resolution_m, _levels(lifted, len(grid.levels) - 1),
+                          grid.hits)
 
 
 def angular_step(points_xy: F64, resolution_m: float, max_step_rad: float = math.radians(1.0)) -> float:
