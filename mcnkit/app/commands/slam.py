@@ -67,8 +67,8 @@ also serves a web viewer), both also beside --rrd.  The recording holds the whol
 Score a trajectory with 'mcnkit eval'.
 
 A log without odometry (a handheld scanner, a bag of /scan alone) runs lidar-only: every scan's motion is found
-from the scans; --slam.motion.odometry ignore runs any log that way.  Steps whose odometry is missing, jumps or
-slips are found the same way, counted in one warning.
+from the scans; --slam.odometry ignore (short for --slam.motion.odometry ignore) runs any log that way.  Steps
+whose odometry is missing, jumps or slips are found the same way, counted in one warning.
 
 Settings: every SlamConfig field is a --slam.FIELD flag (its sections' fields --slam.SECTION.FIELD), every
 RecordingConfig field a --recording.FIELD flag (below); --config FILE reads them from a TOML file ([slam],

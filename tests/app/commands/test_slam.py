@@ -145,6 +145,18 @@ def _flat(config: dict[str, object]) -> dict[str, object]:
     return out
 
 
+def test_slam_odometry_is_the_short_form_of_slam_motion_odometry() -> None:
+    from mcnkit.app.runconfig import resolve_slam_config
+
+    parser = argparse.ArgumentParser("mcnkit")
+    add_slam_parser(parser.add_subparsers(required=True))
+    short, _ = resolve_slam_config(parser.parse_args(["slam", "x.bag", "--out", "o", "--slam.odometry", "ignore"]))
+    long, _ = resolve_slam_config(parser.parse_args(["slam", "x.bag", "--out", "o", "--slam.motion.odometry", "ignore"]))
+    assert short == long and short.motion.odometry == "ignore"
+    with pytest.raises(SystemExit):  # its values are checked as the long flag's are
+        parser.parse_args(["slam", "x.bag", "--out", "o", "--slam.odometry", "none"])
+
+
 def test_section_flags_and_a_toml_file_with_sections_rerun_bit_for_bit(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     log = tmp_path / "corridor.clf"
