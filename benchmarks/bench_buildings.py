@@ -206,7 +206,8 @@ def _beside(runs: list[Run]) -> str:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="filter seeds of every building (default 0 1 2)")
-    parser.add_argument("--only", nargs="+", choices=list(BUILDINGS), help="a subset of the buildings")
+    parser.add_argument("--only", nargs="+", choices=list(BUILDINGS),
+                        help="a subset of the buildings (default: all; with --extra: none but those logs)")
     parser.add_argument("--data", help="the shared data folder (default: $MCNKIT_SHARED_DATA, else ../shared/data)")
     parser.add_argument("--jobs", type=int, default=2, help="runs in parallel (default 2: this machine's cores)")
     parser.add_argument("--out", type=Path, help=f"results folder (default {OUT.relative_to(ROOT)}, with --lidar-only "
@@ -217,7 +218,8 @@ def main() -> int:
     parser.add_argument("--extra", type=Path, nargs="+", default=[], metavar="LOG",
                         help="more logs with a reference, scored like the others and named by their file (e.g. the "
                              "other Radish corrected logs of github.com/acschaefer/ple, data/carmen: buildings this "
-                             "project was not developed on; use another --out to keep the committed results)")
+                             "project was not developed on; use another --out to keep the committed results). Given "
+                             "without --only, only these logs run; with --only, the buildings named there too")
     parser.add_argument("--slam-option", action="append", default=[], metavar="FLAG",
                         help="a flag passed on to every `mcnkit slam` run, to measure a setting across the buildings "
                              "(repeatable; e.g. --slam-option=--no-slam.motion.noise-from-log; use another --out)")
