@@ -317,6 +317,8 @@ STUDY_VARIANTS: dict[str, tuple[str, str | None, dict[str, Any], dict[str, Any]]
     "unknown, ratio, window and seen map only": ("mcn", None, {"gain": "unknown", "beyond_reach": False}, {}),
     "unknown, ratio, cost floor 0.25 m": ("mcn", None, {"gain": "unknown", "cost_floor_m": 0.25}, {}),
     "unknown, ratio, cost floor 0.5 m": ("mcn", None, {"gain": "unknown", "cost_floor_m": 0.5}, {}),
+    "unknown, ratio, cost floor 2 m": ("mcn", None, {"gain": "unknown", "cost_floor_m": 2.0}, {}),
+    "unknown, ratio, cost floor 4 m": ("mcn", None, {"gain": "unknown", "cost_floor_m": 4.0}, {}),
     "true plan: unknown, ratio": ("mcn", TRUTH, {"gain": "unknown"}, {}),
     "true plan: free, ratio": ("mcn", TRUTH, {"gain": "free"}, {}),
     "true plan: unknown, nearest worth 1 m²": ("mcn", TRUTH, {"gain": "unknown", "tradeoff": "nearest"}, {}),
