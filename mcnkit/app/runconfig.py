@@ -210,12 +210,14 @@ def resolve_seed(args: argparse.Namespace, file: dict[str, Any]) -> int:
 def resolve_slam_config(args: argparse.Namespace, file: dict[str, Any] | None = None) -> tuple[SlamConfig, int]:
     """The filter's settings and the seed: defaults, then ``--config`` (its ``slam`` table, or the ``config`` of a
     ``summary.json``; the flat names of a file written before SlamConfig had sections are read into their
-    sections), then ``--particles`` / ``--resolution``, then ``--slam.FIELD`` flags."""
+    sections), then ``--particles`` / ``--resolution`` / ``--odometry``, then ``--slam.FIELD`` flags."""
     from mcnkit.slam.config import SlamConfig, nest_flat_config
 
     file = config_file(args) if file is None else file
     file = {k: nest_flat_config(v) if k in ("slam", "config") and isinstance(v, dict) else v for k, v in file.items()}
+    odometry = getattr(args, "odometry", None)
     short = {"n_particles": ("--particles", getattr(args, "particles", None)),
-             "resolution_m": ("--resolution", getattr(args, "resolution", None))}
+             "resolution_m": ("--resolution", getattr(args, "resolution", None)),
+             "motion": ("--odometry", None if odometry is None else {"odometry": odometry})}
     config = resolve_section(SlamConfig, args, "slam", file, short, file_keys=("config",))
     return config, resolve_seed(args, file)

@@ -152,6 +152,9 @@ class RunOptions(LiveOptions, TopicOptions):
     """SLAM particles (default 30; = --slam.n-particles)"""
     resolution: float | None = None
     """map cell size in metres (default 0.05; = --slam.resolution-m)"""
+    odometry: Literal["use", "ignore"] | None = None
+    """use the log's odometry, or ignore it: every scan's motion found from the scans alone, lidar-only, as
+    'mcnkit info/convert --odometry ignore' read a log (default use; = --slam.motion.odometry)"""
     window: Literal["map", "robot"] | None = None
     """network input: the whole map shrunk to 64x64 (paper; the default) or a robot-centred square
     (= --mcn.window)"""

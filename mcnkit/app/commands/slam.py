@@ -37,7 +37,7 @@ import dataclasses
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from mcnkit.app.commands.info import TopicOptions
 from mcnkit.app.options import add_options
@@ -67,8 +67,9 @@ also serves a web viewer), both also beside --rrd.  The recording holds the whol
 Score a trajectory with 'mcnkit eval'.
 
 A log without odometry (a handheld scanner, a bag of /scan alone) runs lidar-only: every scan's motion is found
-from the scans; --slam.odometry ignore (short for --slam.motion.odometry ignore) runs any log that way.  Steps
-whose odometry is missing, jumps or slips are found the same way, counted in one warning.
+from the scans; --odometry ignore (or --slam.odometry ignore, both short for --slam.motion.odometry ignore) runs
+any log that way.  Steps whose odometry is missing, jumps or slips are found the same way, counted in one
+warning.
 
 Settings: every SlamConfig field is a --slam.FIELD flag (its sections' fields --slam.SECTION.FIELD), every
 RecordingConfig field a --recording.FIELD flag (below); --config FILE reads them from a TOML file ([slam],
@@ -94,6 +95,9 @@ class SlamOptions(LiveOptions, TopicOptions):
     """number of particles (default 30; = --slam.n-particles)"""
     resolution: float | None = None
     """cell size in metres (default 0.05; = --slam.resolution-m)"""
+    odometry: Literal["use", "ignore"] | None = None
+    """use the log's odometry, or ignore it: every scan's motion found from the scans alone, lidar-only, as
+    'mcnkit info/convert --odometry ignore' read a log (default use; = --slam.motion.odometry)"""
     seed: int | None = None
     """random seed (default 0, or the config file's)"""
     out: Path

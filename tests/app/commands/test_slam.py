@@ -145,16 +145,24 @@ def _flat(config: dict[str, object]) -> dict[str, object]:
     return out
 
 
-def test_slam_odometry_is_the_short_form_of_slam_motion_odometry() -> None:
+def test_odometry_ignore_has_the_short_forms_info_and_the_issue_use() -> None:
     from mcnkit.app.runconfig import resolve_slam_config
+    from mcnkit.slam.config import SlamConfig
 
     parser = argparse.ArgumentParser("mcnkit")
     add_slam_parser(parser.add_subparsers(required=True))
-    short, _ = resolve_slam_config(parser.parse_args(["slam", "x.bag", "--out", "o", "--slam.odometry", "ignore"]))
-    long, _ = resolve_slam_config(parser.parse_args(["slam", "x.bag", "--out", "o", "--slam.motion.odometry", "ignore"]))
-    assert short == long and short.motion.odometry == "ignore"
-    with pytest.raises(SystemExit):  # its values are checked as the long flag's are
-        parser.parse_args(["slam", "x.bag", "--out", "o", "--slam.odometry", "none"])
+
+    def config(*flags: str) -> SlamConfig:
+        return resolve_slam_config(parser.parse_args(["slam", "x.bag", "--out", "o", *flags]))[0]
+
+    long = config("--slam.motion.odometry", "ignore")
+    assert long.motion.odometry == "ignore"
+    assert config("--slam.odometry", "ignore") == long == config("--odometry", "ignore")
+    assert config("--odometry", "ignore", "--slam.motion.odometry", "use").motion.odometry == "use"  # the long wins
+    assert config("--odometry", "ignore").motion.noise_from_log == SlamConfig().motion.noise_from_log  # nothing else
+    for bad in (["--slam.odometry", "none"], ["--odometry", "none"]):  # values checked as the long flag's are
+        with pytest.raises(SystemExit):
+            parser.parse_args(["slam", "x.bag", "--out", "o", *bad])
 
 
 def test_section_flags_and_a_toml_file_with_sections_rerun_bit_for_bit(
