@@ -168,32 +168,26 @@ def _default(f: dataclasses.Field[Any]) -> Any:
 
 
 def add_section_flags(parser: argparse.ArgumentParser, cls: type, section: str,
-                      group: argparse._ArgumentGroup | None = None,
-                      aliases: Mapping[str, str] | None = None) -> None:
+                      group: argparse._ArgumentGroup | None = None) -> None:
     """Adds ``--SECTION.FIELD`` for every field of the dataclass ``cls`` (sections within it recursively, as
     ``--SECTION.SUB.FIELD``), in one argument group per section.  A value lands in ``args`` as ``SECTION.FIELD``
-    only when the flag is given.  A section's ``FLAG_ALIASES`` (short name -> dotted field path, a class attribute)
-    gives a nested field a second, shorter flag: ``--SECTION.NAME`` for ``--SECTION.SUB.FIELD``."""
+    only when the flag is given."""
     hints = type_hints(cls)
     docs = field_docs(cls)
-    aliases = dict(aliases or {})
-    for name, target in getattr(cls, "FLAG_ALIASES", {}).items():
-        aliases[f"{section}.{target}"] = f"--{section}.{flag_name(name)}"
     summary = textwrap.fill(plain(cls.__doc__ or ""), 110).replace("%", "%%")
     group = parser.add_argument_group(f"--{section}.* settings ({cls.__name__}; override --config)", summary or None)
     for f in dataclasses.fields(cls):
         hint = hint_of(hints[f.name])
         if isinstance(hint.kind, type) and dataclasses.is_dataclass(hint.kind):
-            add_section_flags(parser, hint.kind, f"{section}.{f.name}", aliases=aliases)
+            add_section_flags(parser, hint.kind, f"{section}.{f.name}")
             continue
         flag, dest = f"--{section}.{flag_name(f.name)}", f"{section}.{f.name}"
-        names = (flag, aliases[dest]) if dest in aliases else (flag,)
         help_text = _help(docs.get(f.name, f.name), _default(f), always=True)
         if hint.kind is bool:
-            group.add_argument(*names, dest=dest, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,
+            group.add_argument(flag, dest=dest, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,
                                help=help_text)
         else:
-            group.add_argument(*names, dest=dest, type=_parser_of(hint.kind, hint.optional), choices=hint.choices,
+            group.add_argument(flag, dest=dest, type=_parser_of(hint.kind, hint.optional), choices=hint.choices,
                                nargs="+" if hint.many else None, default=argparse.SUPPRESS,
                                metavar=hint.kind.__name__.upper() if hint.choices is None else None, help=help_text)
 
@@ -201,9 +195,10 @@ def add_section_flags(parser: argparse.ArgumentParser, cls: type, section: str,
 def add_options(parser: argparse.ArgumentParser, cls: type, *, positional: Sequence[str] = (),
                 flags: Mapping[str, str] | None = None, choices: Mapping[str, Sequence[str]] | None = None,
                 const: Mapping[str, Any] | None = None, required: Sequence[str] = (),
-                help: Mapping[str, str] | None = None) -> None:
+                help: Mapping[str, str] | None = None, aliases: Mapping[str, Sequence[str]] | None = None) -> None:
     """Adds a flag (or a positional argument) for every field of the dataclass ``cls``, and the ``--SECTION.FIELD``
-    flags of every field that is itself a dataclass (see the module docstring)."""
+    flags of every field that is itself a dataclass (see the module docstring); ``aliases``: more spellings of a
+    field's flag."""
     hints = type_hints(cls)
     docs = {**field_docs(cls), **(help or {})}
     flags, choices = flags or {}, choices or {}
@@ -238,7 +233,8 @@ def add_options(parser: argparse.ArgumentParser, cls: type, *, positional: Seque
             continue
         if f.name in flags and values is None:
             kwargs["metavar"] = flag.lstrip("-").replace("-", "_").upper()
-        parser.add_argument(flag, dest=f.name, required=default is dataclasses.MISSING or f.name in required, **kwargs)
+        parser.add_argument(flag, *(aliases or {}).get(f.name, ()), dest=f.name,
+                            required=default is dataclasses.MISSING or f.name in required, **kwargs)
 
 
 def rename_fields(message: str, labels: Mapping[str, str]) -> str:

@@ -26,10 +26,14 @@ from mcnkit.app.options import flag_name, hint_of, rename_fields, type_hints
 if TYPE_CHECKING:
     from mcnkit.slam.config import SlamConfig
 
-__all__ = ["ConfigError", "build_dataclass", "config_file", "dataclass_overrides", "read_config_file",
+__all__ = ["SLAM_FLAG_ALIASES", "ConfigError", "build_dataclass", "config_file", "dataclass_overrides", "read_config_file",
            "resolve_section", "resolve_seed", "resolve_slam_config"]
 
 T = TypeVar("T")
+
+SLAM_FLAG_ALIASES: dict[str, tuple[str, ...]] = {"odometry": ("--slam.odometry",)}
+"""More spellings of the short flags that :func:`resolve_slam_config` reads (``add_options(..., aliases=...)`` of
+``slam`` and ``run``): ``--slam.odometry ignore`` is ``--odometry ignore``, as the issue tracker and users write it."""
 
 
 class ConfigError(ValueError):

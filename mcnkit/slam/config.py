@@ -16,9 +16,8 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Literal
+from typing import Any, Literal
 
 from mcnkit.types import LidarSpec
 
@@ -390,9 +389,6 @@ class MapConfig:
 @dataclass(frozen=True)
 class SlamConfig:
     """Parameters of :class:`mcnkit.slam.FastSlam` (defaults: ROS ``slam_gmapping``), in sections."""
-
-    FLAG_ALIASES: ClassVar[Mapping[str, str]] = {"odometry": "motion.odometry"}
-    """Second command-line flags for nested fields: ``--slam.odometry ignore`` is ``--slam.motion.odometry ignore``."""
 
     n_particles: int = 30
     """Number of particles [particles]."""

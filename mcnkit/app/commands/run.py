@@ -30,6 +30,7 @@ from typing import Literal
 from mcnkit.app.commands.info import TopicOptions
 from mcnkit.app.options import add_options
 from mcnkit.app.recording import LIVE_CONST, LiveOptions
+from mcnkit.app.runconfig import SLAM_FLAG_ALIASES
 from mcnkit.completion.registry import DEFAULT_MODEL, MODELS
 from mcnkit.mcn_config import McnConfig
 from mcnkit.slam.config import SlamConfig
@@ -199,5 +200,6 @@ def add_run_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
              f"file's, else {DEFAULT_MODEL}: the masked sampler trained on maps part-way through an exploration, whose "
              "K samples are K different houses; sampler is trained on the paper's one-scan maps; unet, unet-explore "
              "and pix2pix are deterministic nets whose samples differ only by dropout)")
-    add_options(p, RunOptions, positional=("log",), const=LIVE_CONST, help={"model": model})
+    add_options(p, RunOptions, positional=("log",), const=LIVE_CONST, help={"model": model},
+                aliases=SLAM_FLAG_ALIASES)
     p.set_defaults(func=cmd_run)

@@ -42,7 +42,7 @@ from typing import Any, Literal
 from mcnkit.app.commands.info import TopicOptions
 from mcnkit.app.options import add_options
 from mcnkit.app.recording import LIVE_CONST, LiveOptions
-from mcnkit.app.runconfig import resolve_slam_config
+from mcnkit.app.runconfig import SLAM_FLAG_ALIASES, resolve_slam_config
 from mcnkit.slam.config import SlamConfig
 
 __all__ = ["SlamOptions", "add_slam_parser", "run_slam"]
@@ -123,7 +123,7 @@ def add_slam_parser(subparsers: Any) -> argparse.ArgumentParser:
         description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_options(p, SlamOptions, positional=("log",), const=LIVE_CONST)
+    add_options(p, SlamOptions, positional=("log",), const=LIVE_CONST, aliases=SLAM_FLAG_ALIASES)
     p.set_defaults(func=run_slam)
     return p
 
