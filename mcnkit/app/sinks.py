@@ -138,6 +138,7 @@ class SlamOutputs:
                 "lidar_only": slam.lidar_only,  # no odometry reached the filter (none in the log, or ignored)
                 "unknown_motion_scans": slam.n_unknown_motion,  # no odometry for them (Frame.odom_known, or ignored)
                 "odometry_rejected_scans": slam.n_odometry_rejected,  # odometry the scans contradicted
+                "wide_search_jumps": slam.n_wide_jumps,  # steps the wide search moved far from the prediction
                 "self_hit_beams": [int(b) for b in slam.self_hits.beams],  # the robot's own returns (MatchingConfig)
                 "self_hit_returns_dropped": slam.self_hits.n_dropped,
                 "scans": slam.n_scans,

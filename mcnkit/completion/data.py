@@ -16,9 +16,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
 import torch
-from numpy.typing import NDArray
 
 from mcnkit.completion.registry import DOMAINS
 from mcnkit.datasets import PairSet, PairSplits, load_or_build_houseexpo_pairs, procedural_pairs
@@ -59,11 +57,6 @@ def load_domain_pairs(
 def encode(pairs: PairSet) -> tuple[torch.Tensor, torch.Tensor]:
     """(network input from m_t, network target from m_T), each (N, 2, H, W) float32."""
     return torch.from_numpy(ternary_to_network(pairs.partial)), torch.from_numpy(ternary_to_network(pairs.target))
-
-
-def encode_partial(partial: NDArray[np.floating]) -> torch.Tensor:
-    """Network input (N, 2, H, W) from ternary m_t (N, H, W)."""
-    return torch.from_numpy(ternary_to_network(np.asarray(partial, np.float32)))
 
 
 def augment_dihedral(

@@ -25,7 +25,6 @@ class SqliteSource(RawSource):
         self.path = path
         self._dbs: list[tuple[Path, sqlite3.Connection]] = []
         self.connections = []
-        merged: dict[tuple[str, str], Connection] = {}
         for f, shown_as in zip(files, shown or files, strict=True):
             try:
                 db = sqlite3.connect(_readonly_uri(f), uri=True)
@@ -43,16 +42,6 @@ class SqliteSource(RawSource):
                 d, dfmt = defs.get(msgtype, ("", "msg"))
                 c = Connection((str(f), tid), name, normalize_msgtype(msgtype), "cdr", d, dfmt, counts.get(tid, 0))
                 self.connections.append(c)
-                key = (name, c.msgtype)
-                prev = merged.get(key)
-                merged[key] = c if prev is None else Connection(prev.key, name, c.msgtype, "cdr", d, dfmt,
-                                                                prev.count + c.count)
-        self._topic_conn = merged
-
-    @property
-    def topic_connections(self) -> list[Connection]:
-        """One connection per (topic, type), counts summed over the files."""
-        return list(self._topic_conn.values())
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Time-ordered messages, merged across the files of a split bag."""

@@ -73,10 +73,6 @@ class Edges:
             np.concatenate([p.robust for p in parts]),
         )
 
-    def select(self, keep: NDArray[np.bool_]) -> Edges:
-        """The edges where ``keep`` is True."""
-        return Edges(self.i[keep], self.j[keep], self.z[keep], self.info[keep], self.robust[keep])
-
 
 def _rot(theta: F64) -> tuple[F64, F64]:
     return np.cos(theta), np.sin(theta)

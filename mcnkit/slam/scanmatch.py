@@ -81,26 +81,25 @@ def _evaluate(
         ix = int(math.floor(x * inv))
         iy = int(math.floor(y * inv))
         best = 1e300
-        if True:
-            ifx = 0
-            ify = 0
-            if free_check:
-                ifx = int(math.floor((px + c * fx[i] - s * fy[i]) * inv))
-                ify = int(math.floor((py + s * fx[i] + c * fy[i]) * inv))
-            for dy in range(-kernel, kernel + 1):
-                for dx in range(-kernel, kernel + 1):
-                    cell = cell_of(table, p, ix + dx, iy + dy, tx0, ty0, shift)
-                    if cell < 0 or count[cell] == 0:
+        ifx = 0
+        ify = 0
+        if free_check:
+            ifx = int(math.floor((px + c * fx[i] - s * fy[i]) * inv))
+            ify = int(math.floor((py + s * fx[i] + c * fy[i]) * inv))
+        for dy in range(-kernel, kernel + 1):
+            for dx in range(-kernel, kernel + 1):
+                cell = cell_of(table, p, ix + dx, iy + dy, tx0, ty0, shift)
+                if cell < 0 or count[cell] == 0:
+                    continue
+                if free_check:
+                    fcell = cell_of(table, p, ifx + dx, ify + dy, tx0, ty0, shift)
+                    if fcell >= 0 and fcell != cell and count[fcell] > 0:
                         continue
-                    if free_check:
-                        fcell = cell_of(table, p, ifx + dx, ify + dy, tx0, ty0, shift)
-                        if fcell >= 0 and fcell != cell and count[fcell] > 0:
-                            continue
-                    ex = x - ((ix + dx) * res + mean_x[cell])
-                    ey = y - ((iy + dy) * res + mean_y[cell])
-                    d2 = ex * ex + ey * ey
-                    if d2 < best:
-                        best = d2
+                ex = x - ((ix + dx) * res + mean_x[cell])
+                ey = y - ((iy + dy) * res + mean_y[cell])
+                d2 = ex * ex + ey * ey
+                if d2 < best:
+                    best = d2
         if best < 1e300:
             score += math.exp(-best * inv_sigma)
             loglik -= best * inv_lsigma

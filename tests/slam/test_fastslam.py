@@ -213,6 +213,28 @@ def test_odometry_that_says_forward_while_the_robot_backs_up_is_caught() -> None
     assert rejected[False] > 0
 
 
+def test_an_odometry_jump_the_scans_contradict_is_undone_by_the_wide_search_and_counted() -> None:
+    # the odometry reads one step as 0.8 m sideways (a slip read wrong); the scans show the robot drove straight on
+    rng = np.random.default_rng(5)
+    truth = true_path()[:70]
+    odom = [truth[0]]
+    for k in range(1, len(truth)):
+        jump = np.array([0.0, 0.8, 0.0]) if k == 40 else np.zeros(3)
+        odom.append(compose(odom[-1], relative(truth[k - 1], truth[k]) + jump))
+    frames = [Frame(int(k * 1e8), Scan(cast(p, rng), LIDAR), Pose2D.from_array(o))
+              for k, (p, o) in enumerate(zip(truth, odom, strict=True))]
+    errors, jumps = {}, {}
+    for wide in (True, False):
+        slam = FastSlam(SlamConfig(n_particles=10, wide=WideConfig(search=wide), loops=LoopsConfig(closure=False)),
+                        np.random.default_rng(0))
+        for f in frames:
+            slam.step(f)
+        errors[wide] = float(np.hypot(*(slam.trajectory().poses[-1, :2] - truth[-1][:2])))
+        jumps[wide] = slam.n_wide_jumps
+    assert errors[True] < 0.2 < errors[False]  # without the wide search the filter keeps part of the jump
+    assert jumps == {True: 1, False: 0}  # summary.json's wide_search_jumps
+
+
 def _turn_without_odometry() -> tuple[list[np.ndarray], list[Frame], float, int]:
     """The robot drives 2 m east, turns 70° in place and drives on north-east; across the turn the log holds no
     odometry (``odom_known`` False), so that frame repeats the previous odometry pose."""
