@@ -33,7 +33,7 @@ __all__ = ["DEFAULT_MODEL", "ExploreOptions", "add_explore_parser", "cmd_explore
 DEFAULT_MODEL = "sampler-seen-large"
 """The completion model ``mcn`` plans with unless ``--model`` names another: the larger sampler trained on the
 window the planner completes (the seen part plus 2 m, :func:`mcnkit.grid.seen_window`), whose expected gains choose
-the viewpoint the true plan would more often than the smaller one's (``sampler-seen``: three to six times cheaper
+the viewpoint the true plan would more often than the smaller one's (``sampler-seen``: four to six times cheaper
 per planning step)."""
 
 _SLAM_DEFAULTS = {"updates": {"linear_m": 0.3, "angular_rad": 0.3}}
