@@ -186,6 +186,13 @@ class GridSpec:
         row = np.floor((xy_m[..., 1] - self.origin_y_m) / self.resolution_m)
         return np.stack([row, col], axis=-1).astype(np.int64)
 
+    def world_to_cells_xy(self, xy_m: NDArray[np.floating]) -> F64:
+        """Points (..., 2) ``[x_m, y_m]`` in continuous cell units ``[x, y]`` from the grid's corner (not rounded,
+        not swapped to ``[row, col]``): the ray origins of the visibility kernels."""
+        xy = np.asarray(xy_m, np.float64)
+        return np.stack([(xy[..., 0] - self.origin_x_m) / self.resolution_m,
+                         (xy[..., 1] - self.origin_y_m) / self.resolution_m], axis=-1)
+
     def cell_to_world(self, rc: NDArray[np.integer]) -> F64:
         """Centre (..., 2) ``[x_m, y_m]`` of cells given as (..., 2) ``[row, col]``."""
         x = self.origin_x_m + (rc[..., 1] + 0.5) * self.resolution_m

@@ -12,7 +12,7 @@ from mcnkit.grid import (
     ternary_to_network,
     unknown_mask,
 )
-from mcnkit.types import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from mcnkit.types import FREE, OCCUPIED, UNKNOWN, GridSpec, OccupancyGrid
 
 
 def test_probabilities_map_to_ternary_by_the_papers_rule():
@@ -23,8 +23,6 @@ def test_probabilities_map_to_ternary_by_the_papers_rule():
 def test_log_odds_give_the_same_ternary_as_their_probabilities():
     lo = np.random.default_rng(1).normal(0, 2, (16, 16)).astype(np.float32)
     lo[::3, ::2] = 0.0
-    from mcnkit.types import GridSpec
-
     grid = OccupancyGrid(GridSpec(0.05, 0, 0, 16, 16), lo)
     assert np.array_equal(log_odds_to_ternary(lo), probabilities_to_ternary(grid.probabilities))
 
@@ -76,3 +74,13 @@ def test_pad_to_square_centres_the_map():
     sq = pad_to_square(img, fill=OCCUPIED)
     assert sq.shape == (4, 4)
     assert sq[0].tolist() == [1.0] * 4 and sq[1].tolist() == [0.0] * 4
+
+
+def test_continuous_cell_coordinates_agree_with_integer_cells_and_centres():
+    spec = GridSpec(0.05, -1.0, 2.0, 40, 30)
+    rc = np.array([[0, 0], [7, 12], [29, 39]])
+    centres = spec.cell_to_world(rc)
+    xy = spec.world_to_cells_xy(centres)
+    np.testing.assert_allclose(xy, rc[:, ::-1] + 0.5)  # [x, y] = [col, row] + half a cell
+    np.testing.assert_array_equal(np.floor(xy[:, ::-1]).astype(int), spec.world_to_cell(centres))
+    np.testing.assert_allclose(spec.world_to_cells_xy(np.array([-1.0, 2.0])), [0.0, 0.0])

@@ -45,11 +45,9 @@ def run(spec: str, seed: int, model: str) -> dict[str, Any]:
     from benchmarks.bench_explore import truth_planner
     from mcnkit.explore.config import ExploreConfig, GainConfig
     from mcnkit.explore.frontiers import Viewpoints
-    from mcnkit.explore.gain import expected_gains
     from mcnkit.explore.loop import Explorer, seed_streams
     from mcnkit.explore.paths import CostField
     from mcnkit.explore.planners import McnPlanner, PlanningView
-    from mcnkit.explore.predict import Prediction
     from mcnkit.mcn import load_model
     from mcnkit.sim import SimConfig, plan_raster
 
@@ -60,20 +58,13 @@ def run(spec: str, seed: int, model: str) -> dict[str, Any]:
     truth = truth_planner(raster, gain, range_m, torch.Generator().manual_seed(0))
     steps: list[dict[str, list[float] | int]] = []
 
-    def inside(pred: Prediction, points: Viewpoints) -> Any:
-        w = pred.window
-        origins = np.stack([(points.xy_m[:, 0] - w.origin_x_m) / w.resolution_m,
-                            (points.xy_m[:, 1] - w.origin_y_m) / w.resolution_m], 1)
-        return expected_gains(pred.samples, pred.partial, origins, gain, range_m / w.resolution_m,
-                              w.resolution_m**2)
-
     class Recorded(McnPlanner):
         def score(self, view: PlanningView, points: Viewpoints, field: CostField) -> Any:
             g, s, pred = super().score(view, points, field)
             if len(points) and pred is not None:
                 g_true, _, pred_true = truth.score(view, points, field)
-                steps.append({"gain": g.tolist(), "gain_in": inside(pred, points).tolist(),
-                              "true": g_true.tolist(), "true_in": inside(pred_true, points).tolist(),
+                steps.append({"gain": g.tolist(), "gain_in": self.window_gains(pred, points.xy_m).tolist(),
+                              "true": g_true.tolist(), "true_in": self.window_gains(pred_true, points.xy_m).tolist(),
                               "cost_m": points.cost_m.tolist(), "choice": int(np.argmax(s))})
             return g, s, pred
 

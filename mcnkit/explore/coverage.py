@@ -31,9 +31,7 @@ BoolArray = NDArray[np.bool_]
 def mark_seen(free: BoolArray, grid: GridSpec, seen: BoolArray, xy_m: NDArray[np.floating], range_m: float,
               rays: int) -> None:
     """Marks in ``seen`` (H, W), in place, the free cells a scan from each position ``xy_m`` (N, 2) sees."""
-    xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
-    origins = np.stack([(xy[:, 0] - grid.origin_x_m) / grid.resolution_m,
-                        (xy[:, 1] - grid.origin_y_m) / grid.resolution_m], 1)
+    origins = grid.world_to_cells_xy(np.asarray(xy_m, np.float64).reshape(-1, 2))
     visible = np.zeros_like(seen)
     cast_visibility(~free[None], None, origins, rays, range_m / grid.resolution_m, mask=visible)
     seen |= visible & free

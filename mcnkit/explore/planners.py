@@ -136,12 +136,8 @@ class McnPlanner:
         pred = self.prediction(view)
         if len(points) == 0:
             return np.zeros(0), np.zeros(0), pred
-        w = pred.window
-        origins = np.stack([(points.xy_m[:, 0] - w.origin_x_m) / w.resolution_m,
-                            (points.xy_m[:, 1] - w.origin_y_m) / w.resolution_m], 1)
-        gain = expected_gains(pred.samples, pred.partial, origins, cfg, self.range_m / w.resolution_m,
-                              w.resolution_m**2)
-        gain = gain + self._beyond_window(view, w, points.xy_m, gain)
+        gain = self.window_gains(pred, points.xy_m)
+        gain = gain + self._beyond_window(view, pred.window, points.xy_m, gain)
         if cfg.tradeoff == "tour":
             score = tour_scores(gain, points, field, cfg.tour_min_gain_m2, cfg.tour_places)
         elif cfg.tradeoff == "nearest":
@@ -153,6 +149,13 @@ class McnPlanner:
         if cfg.local_m > 0:
             score = local_first(score, gain, points.cost_m, cfg.local_m, cfg.tour_min_gain_m2)
         return gain, score, pred
+
+    def window_gains(self, pred: Prediction, xy_m: F64) -> F64:
+        """(V,) the gains [m²] from viewpoints ``xy_m`` (V, 2) inside the completions' window
+        (:func:`mcnkit.explore.gain.expected_gains` on ``pred``'s samples)."""
+        w = pred.window
+        return expected_gains(pred.samples, pred.partial, w.world_to_cells_xy(xy_m), self.config,
+                              self.range_m / w.resolution_m, w.resolution_m**2)
 
     def prediction(self, view: PlanningView) -> Prediction:
         """The completions the gains are computed on: K samples of the net on the window around the seen map
@@ -182,7 +185,7 @@ class McnPlanner:
                          window.width + left + right, window.height + below + above)
         inside = np.zeros((outer.height, outer.width), bool)
         inside[below:below + window.height, left:left + window.width] = True
-        origins = np.stack([(xy_m[:, 0] - outer.origin_x_m) / res, (xy_m[:, 1] - outer.origin_y_m) / res], 1)
+        origins = outer.world_to_cells_xy(xy_m)
         return beyond_window_gains(view.lineage.pooled(outer), inside, window_gains, origins, self.config.beams,
                                    self.range_m / res, res**2)
 

@@ -185,7 +185,7 @@ class ExploreRecorder:
         goal = d.goal_xy_m
         if goal is None:
             return
-        origin = np.array([(goal[0] - w.origin_x_m) / w.resolution_m, (goal[1] - w.origin_y_m) / w.resolution_m])
+        origin = w.world_to_cells_xy(np.asarray(goal, np.float64))
         walls = sample_walls(pred.samples, pred.partial, "unknown")
         reach = self.explorer.sim.lidar.range_max_m / w.resolution_m
         share = np.mean([visible_mask(walls[k], origin, 180, reach) for k in range(len(walls))], axis=0)
