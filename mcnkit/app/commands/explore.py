@@ -191,7 +191,8 @@ class ExploreOptions(LiveOptions):
     overwrite: bool = False
     """replace existing outputs (--rrd, --out files)"""
     model: str = DEFAULT_MODEL
-    """completion model of the mcn planner: a shipped model's name or a checkpoint path"""
+    """completion model of the mcn planner: a shipped model's name or a checkpoint path (sampler-seen plans at a
+    sixth of the CPU and explored buildings larger than a house better, see docs/exploration.md)"""
     seed: int | None = None
     """seed of the start pose, the sensor and odometry noise, the filter and the samples (default 0, or the config
     file's)"""
