@@ -30,10 +30,12 @@ def pooled(reports: list[dict[str, Any]], domain: str, level: str = LEVEL, seed:
     """Per seed set and pooled saving of ``mcn`` against ``frontier`` on one domain (see the module); the reports
     without a run of that domain (``bench_explore --procedural 0``) are left out."""
     sets: list[dict[str, tuple[float, float]]] = []
+    offsets: list[int] = []
     unfinished = 0
     for report in reports:
         if not any(r["domain"] == domain for r in report["runs"]):
             continue
+        offsets.append(report.get("seed_offset", 0))
         by = {(r["planner"], r["map"]): r["path_to_coverage_m"][level] for r in report["runs"]
               if r["domain"] == domain and r.get("variant", "default") == "default"}
         pairs = {}
@@ -53,8 +55,7 @@ def pooled(reports: list[dict[str, Any]], domain: str, level: str = LEVEL, seed:
     boot = 1.0 - np.nanmean(mcn[idx].reshape(len(idx), -1), axis=1) / np.nanmean(frontier[idx].reshape(len(idx), -1),
                                                                                   axis=1)
     return {"domain": domain, "houses": len(houses), "seed_sets": len(sets),
-            "seed_offsets": [report.get("seed_offset", 0) for report in reports
-                             if any(r["domain"] == domain for r in report["runs"])],
+            "seed_offsets": offsets,
             "saving_per_set": [float(1.0 - np.nanmean(mcn[:, j]) / np.nanmean(frontier[:, j]))
                                for j in range(len(sets))],
             "runs_both_finished": int(np.isfinite(mcn - frontier).sum()),

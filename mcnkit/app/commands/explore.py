@@ -33,8 +33,8 @@ __all__ = ["DEFAULT_MODEL", "ExploreOptions", "add_explore_parser", "cmd_explore
 DEFAULT_MODEL = "sampler-seen-large"
 """The completion model ``mcn`` plans with unless ``--model`` names another: the larger sampler trained on the
 window the planner completes (the seen part plus 2 m, :func:`mcnkit.grid.seen_window`), whose expected gains choose
-the viewpoint the true plan would more often than the smaller one's (``sampler-seen``: four to six times cheaper
-per planning step)."""
+the viewpoint the true plan would more often than the smaller one's; the option's help names when ``sampler-seen``
+is the better choice."""
 
 _SLAM_DEFAULTS = {"updates": {"linear_m": 0.3, "angular_rad": 0.3}}
 """Explore's own SlamConfig defaults (those of :data:`mcnkit.explore.loop.EXPLORE_SLAM`)."""
@@ -191,8 +191,9 @@ class ExploreOptions(LiveOptions):
     overwrite: bool = False
     """replace existing outputs (--rrd, --out files)"""
     model: str = DEFAULT_MODEL
-    """completion model of the mcn planner: a shipped model's name or a checkpoint path (sampler-seen plans at a
-    sixth of the CPU and explored buildings larger than a house better, see docs/exploration.md)"""
+    """completion model of the mcn planner: a shipped model's name or a checkpoint path (sampler-seen: four to
+    six times less CPU per planning step, and it explored buildings larger than a house better; see
+    docs/exploration.md)"""
     seed: int | None = None
     """seed of the start pose, the sensor and odometry noise, the filter and the samples (default 0, or the config
     file's)"""
