@@ -10,11 +10,18 @@ Where the runs agree with the scans as well as the reference does or better, yet
 by more than a target, that target measures the reference's choices along directions the scans leave open (a
 corridor's axis), not the SLAM.
 
+The log's odometry is scored too, and every trajectory's steps are compared with the odometry's on the straight
+drives (odometry step over 0.5 m, turn under 1.15°): the spread of the forward step about the odometry's, and the
+roughness of the forward step (the spread of its change from one step to the next). A robot's wheels measure the
+forward motion of a straight drive smoothly; a scan matcher in a corridor leaves it to whatever weak feature it
+meets, so a trajectory rougher than the odometry carries that matcher's choices along the axis.
+
 Printed and written to ``benchmarks/results/NAME_consistency.{md,json}``, with ``NAME_consistency.png``: the reference
 path with its scan numbers, and each run's distance from the reference scan by scan (after the rigid alignment of
 the ATE): where along the log the runs part from it and from each other.
 
     .venv/bin/python -m benchmarks.studies.corridor_consistency /path/infinite-corridor-corrected.log.gz [--seeds 0 1 2]
+        [--jobs 2]
 """
 
 from __future__ import annotations
@@ -26,9 +33,14 @@ import subprocess
 import sys
 import tempfile
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from benchmarks.common import RESULTS, SLAM_ENV, slam_command
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 def _run(cmd: list[str], what: str) -> str:
@@ -37,6 +49,44 @@ def _run(cmd: list[str], what: str) -> str:
     if proc.returncode != 0:
         raise SystemExit(f"{what} failed: {(proc.stderr.strip().splitlines() or ['no message'])[-1]}")
     return proc.stdout
+
+
+STRAIGHT_MIN_STEP_M = 0.5
+"""An odometry step at least this long ..."""
+STRAIGHT_MAX_TURN_RAD = 0.02
+"""... turning at most this much (1.15°) is a straight drive, where the wheels measure the forward motion best."""
+
+
+def _odometry(log: Path, path: Path) -> None:
+    """Writes the log's odometry, one pose per scan, as a TUM file at ``path``."""
+    import numpy as np
+
+    from mcnkit.io import open_log
+    from mcnkit.metrics import Trajectory, write_tum
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the reader's notes on stamps: `mcnkit info` prints them
+        with open_log(log) as reader:
+            frames = list(reader.frames())
+    write_tum(path, Trajectory(np.array([f.stamp_ns for f in frames], np.int64),
+                               np.array([f.odom.as_array() for f in frames], np.float64)))
+
+
+def _step_noise(poses: np.ndarray, odometry: np.ndarray) -> dict[str, float]:
+    """On the odometry's straight drives, the spread (mm) of a trajectory's forward step about the odometry's and
+    the roughness of its forward step (the spread of the change between consecutive straight steps, mm); both
+    trajectories (N, 3) paired by order."""
+    import numpy as np
+
+    from mcnkit.geometry import relative
+
+    n = min(len(poses), len(odometry))
+    step, odo = relative(poses[: n - 1], poses[1:n]), relative(odometry[: n - 1], odometry[1:n])
+    straight = (odo[:, 0] > STRAIGHT_MIN_STEP_M) & (np.abs(odo[:, 2]) < STRAIGHT_MAX_TURN_RAD)
+    both = straight[1:] & straight[:-1]
+    return {"straight_steps": int(straight.sum()),
+            "forward_vs_odometry_std_mm": float(np.std((step[:, 0] - odo[:, 0])[straight]) * 1000),
+            "forward_roughness_mm": float(np.std(np.diff(step[:, 0])[both]) * 1000)}
 
 
 def _plot(tracks: dict, path: Path, name: str) -> None:
@@ -74,6 +124,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("log", type=Path, help="a log with one reference pose per scan (a Radish corrected log)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="seeds of the runs (default 0 1 2)")
+    parser.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1; each run is one process)")
     parser.add_argument("--out", type=Path, default=None,
                         help="output stem (default benchmarks/results/NAME_consistency, NAME from the log's file name)")
     args = parser.parse_args()
@@ -88,12 +139,21 @@ def main() -> int:
         ref = tmp / "reference.tum"
         _run([sys.executable, "-m", "mcnkit.app.main", "eval", "groundtruth", str(args.log), str(ref)],
              f"mcnkit eval groundtruth {args.log}")
-        runs = {}
-        for seed in args.seeds:
-            print(f"{name}: mcnkit slam seed {seed}", flush=True)
+        odometry = tmp / "odometry.tum"
+        _odometry(args.log, odometry)
+
+        def run(seed: int) -> Path:
             _run(slam_command(args.log, seed, tmp / f"seed{seed}"), f"mcnkit slam {args.log} --seed {seed}")
-            runs[f"seed {seed}"] = tmp / f"seed{seed}" / "trajectory.tum"
-        named = {"reference": ref, **runs}
+            return tmp / f"seed{seed}" / "trajectory.tum"
+
+        print(f"{name}: mcnkit slam at seeds {' '.join(map(str, args.seeds))}, {max(1, args.jobs)} at a time",
+              flush=True)
+        runs = {}
+        with ThreadPoolExecutor(max(1, args.jobs)) as pool:
+            for seed, path in zip(args.seeds, pool.map(run, args.seeds), strict=True):
+                runs[f"seed {seed}"] = path
+                print(f"{name}: seed {seed} done", flush=True)
+        named = {"reference": ref, "odometry": odometry, **runs}
         scored = json.loads(_run([sys.executable, "-m", "mcnkit.app.main", "eval", "consistency", str(args.log),
                                   *map(str, named.values()), "--match", "order", "--no-progress", "--json"],
                                  f"mcnkit eval consistency {args.log}"))["trajectories"]
@@ -103,23 +163,34 @@ def main() -> int:
             tracks = {label: read_tum(path) for label, path in named.items()}
         ate = {f"{a} vs {b}": absolute_trajectory_error(tracks[b], tracks[a], match="order").rmse_m
                for a, b in itertools.combinations(named, 2)}
-    _plot(tracks, Path(f"{out}.png"), name)
+        steps = {label: _step_noise(track.poses, tracks["odometry"].poses) for label, track in tracks.items()}
+    _plot({k: v for k, v in tracks.items() if k != "odometry"}, Path(f"{out}.png"), name)
     lines = [f"# {name}: ATE against the reference beside agreement with the log's own scans",
-             "", "`python -m benchmarks.studies.corridor_consistency LOG` (mean relation error, lower = agrees better)",
-             "", "| trajectory | ATE vs reference (m) | sequential (m / deg) | revisits (m / deg) |", "|---|---|---|---|"]
+             "", f"`python -m benchmarks.studies.corridor_consistency LOG --seeds {' '.join(map(str, args.seeds))}` "
+             "(mean relation error, lower = agrees better; steps: on the odometry's "
+             f"{steps['reference']['straight_steps']} straight drives, the forward step's spread about the odometry's "
+             "and its roughness)",
+             "", "| trajectory | ATE vs reference (m) | sequential (m / deg) | revisits (m / deg) | forward step vs "
+             "odometry (mm) | forward roughness (mm) |", "|---|---|---|---|---|---|"]
     for label in named:
-        c = consistency[label]
+        c, st = consistency[label], steps[label]
         a = "–" if label == "reference" else f"{ate[f'reference vs {label}']:.3f}"
-        lines.append(f"| {label} | {a} | {c['sequential']['translation_mean_m']:.4f} / "
-                     f"{c['sequential']['rotation_mean_deg']:.3f} | {c['revisits']['translation_mean_m']:.4f} / "
-                     f"{c['revisits']['rotation_mean_deg']:.3f} |")
-    lines += ["", "ATE between the runs themselves (m): " + ", ".join(
-        f"{k} {v:.3f}" for k, v in ate.items() if not k.startswith("reference"))]
+        rel = " | ".join(f"{c[k]['translation_mean_m']:.4f} / {c[k]['rotation_mean_deg']:.3f}"
+                         if c[k]["translation_mean_m"] is not None else "–" for k in ("sequential", "revisits"))
+        vs = "–" if label == "odometry" else f"{st['forward_vs_odometry_std_mm']:.1f}"
+        lines.append(f"| {label} | {a} | {rel} | {vs} | {st['forward_roughness_mm']:.1f} |")
+    to_ref = [ate[f"reference vs {label}"] for label in runs]
+    between = sorted(v for k, v in ate.items() if not k.startswith(("reference", "odometry")) and "odometry" not in k)
+    lines += ["", f"Runs against the reference: mean {sum(to_ref) / len(to_ref):.3f} m, worst {max(to_ref):.3f} m, "
+              f"{sum(v <= 0.30 for v in to_ref)} of {len(to_ref)} within 0.30 m."]
+    if between:
+        lines.append(f"ATE between the runs themselves ({len(between)} pairs): least {between[0]:.3f} m, median "
+                     f"{between[len(between) // 2]:.3f} m, most {between[-1]:.3f} m.")
     text = "\n".join(lines) + "\n"
     print(text)
     Path(f"{out}.md").write_text(text)
     Path(f"{out}.json").write_text(json.dumps({"log": args.log.name, "seeds": args.seeds, "ate_m": ate,
-                                                    "consistency": consistency}, indent=2) + "\n")
+                                                    "consistency": consistency, "steps": steps}, indent=2) + "\n")
     return 0
 
 
