@@ -21,7 +21,7 @@ path with its scan numbers, and each run's distance from the reference scan by s
 the ATE): where along the log the runs part from it and from each other.
 
     .venv/bin/python -m benchmarks.studies.corridor_consistency /path/infinite-corridor-corrected.log.gz [--seeds 0 1 2]
-        [--jobs 2]
+        [--jobs 2]    (default: seeds 0 to 9, one run at a time)
 """
 
 from __future__ import annotations
@@ -123,7 +123,8 @@ def _plot(tracks: dict, path: Path, name: str) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("log", type=Path, help="a log with one reference pose per scan (a Radish corrected log)")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="seeds of the runs (default 0 1 2)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=list(range(10)),
+                        help="seeds of the runs (default 0 to 9)")
     parser.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1; each run is one process)")
     parser.add_argument("--out", type=Path, default=None,
                         help="output stem (default benchmarks/results/NAME_consistency, NAME from the log's file name)")
