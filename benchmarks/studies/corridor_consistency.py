@@ -52,9 +52,9 @@ def _run(cmd: list[str], what: str) -> str:
 
 
 STRAIGHT_MIN_STEP_M = 0.5
-"""An odometry step at least this long ..."""
+"""A straight drive is an odometry step longer than this that turns less than ``STRAIGHT_MAX_TURN_RAD``."""
 STRAIGHT_MAX_TURN_RAD = 0.02
-"""... turning at most this much (1.15°) is a straight drive, where the wheels measure the forward motion best."""
+"""The most a straight drive's odometry step turns (1.15°): there the wheels measure the forward motion best."""
 
 
 def _odometry(log: Path, path: Path) -> None:
