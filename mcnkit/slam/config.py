@@ -4,7 +4,7 @@ Every field that gmapping has keeps its meaning (its ROS parameter name is given
 be compared with gmapping's C++ core (its figures: `benchmarks/bench_slam.py`).  The sections: ``motion`` (the
 odometry's noise), ``matching`` (the scan matcher), ``updates`` (when and how the particles are updated), ``wide``
 (the wide search that recovers bad odometry), ``loops`` (finding loop closures), ``graph`` (the pose graph that
-closes them) and ``map`` (the maps' ray casting and tiles).  On the command line they are ``--slam.SECTION.FIELD``
+closes them), ``offline`` (the whole log as one pose graph once the run is over) and ``map`` (the maps' ray casting and tiles).  On the command line they are ``--slam.SECTION.FIELD``
 flags, in a TOML file ``[slam.SECTION]`` tables.
 
 Example:
@@ -21,8 +21,19 @@ from typing import Any, Literal
 
 from mcnkit.types import LidarSpec
 
-__all__ = ["FLAT_NAMES", "GraphConfig", "LoopsConfig", "MapConfig", "MatchingConfig", "MotionConfig", "SlamConfig",
-           "UpdatesConfig", "WideConfig", "nest_flat_config"]
+__all__ = [
+    "FLAT_NAMES",
+    "GraphConfig",
+    "LoopsConfig",
+    "MapConfig",
+    "MatchingConfig",
+    "MotionConfig",
+    "OfflineConfig",
+    "SlamConfig",
+    "UpdatesConfig",
+    "WideConfig",
+    "nest_flat_config",
+]
 
 
 def _positive(section: object, *names: str) -> None:
@@ -357,6 +368,97 @@ class GraphConfig:
 
 
 @dataclass(frozen=True)
+class OfflineConfig:
+    """What is done once the run is over: the whole log solved as one pose graph (:mod:`mcnkit.slam.wholegraph`):
+    which scans are linked, how their matches are made, and how precise the odometry and the filter's steps are
+    stated to be."""
+
+    whole_graph: bool = False
+    """Solve the whole log as one graph before the refinement (``trajectory.tum`` and the map come from its
+    solution).  Off by default: it holds a long corridor's seeds together and lowers MIT CSAIL's relations error,
+    but loses ground on most Radish buildings and doubles the offline CPU (docs/slam.md, "The whole log as one
+    graph")."""
+    steps: int = 2
+    """Each node is matched with the next this many nodes."""
+    revisit_m: float = 4.0
+    """Two nodes of different passes within this distance ..."""
+    revisit_rad: float = 1.0
+    """... and this heading of each other are matched (a revisit) ..."""
+    revisit_path_m: float = 10.0
+    """... when at least this much driving lies between them."""
+    revisit_bin: int = 2
+    """One revisit pair per block of this many × this many nodes."""
+    window_m: float = 0.3
+    """A neighbour's match is searched within ± this of the run's relative pose (x and y) ..."""
+    revisit_window_m: float = 0.5
+    """... a revisit's within ± this ..."""
+    window_rad: float = math.radians(4.0)
+    """... and both within ± this in heading."""
+    min_score: float = 0.4
+    """A match must reach this mean likelihood over the returns that take part."""
+    max_range_m: float = 20.0
+    """Returns up to this range take part (beyond it the beams fan out wider than the likelihood field)."""
+    resolution_m: float = 0.05
+    """Cell size of each scan's likelihood field."""
+    sigma_m: float = 0.05
+    """Width of each scan's likelihood field."""
+    icp_sigma_m: float = 0.02
+    """A return's distance from the other scan's wall, one standard deviation (range noise and the outline's
+    straight lines) ..."""
+    icp_huber_m: float = 0.03
+    """... beyond this it pulls linearly (clutter, a door that moved) ..."""
+    icp_reach_m: float = 0.1
+    """... and a return farther than this from every wall of the other scan is left out (the search radius
+    shrinks to it from ``window_m`` as the fit settles)."""
+    min_pinned: float = 0.1
+    """A match's weaker translation direction counts only where it is pinned at least this share as well as the
+    stronger one (along a corridor's axis it is not)."""
+    beams: float = 20.0
+    """A match's information counts as that of this many independent beams (neighbours hit the same wall)."""
+    cap_sigma_m: float = 0.005
+    """A match is never stated more precise than this in translation ..."""
+    cap_sigma_rad: float = math.radians(0.05)
+    """... and this in heading."""
+    odom_sigma_m: float = 0.01
+    """Stated precision of the odometry's step in translation, before it grows with the step ..."""
+    odom_sigma_per_m: float = 0.01
+    """... by this per metre."""
+    odom_sigma_rad: float = math.radians(0.3)
+    """Stated precision of the odometry's step in heading, before it grows ..."""
+    odom_sigma_rad_per_m: float = math.radians(0.5)
+    """... by this per metre of the step ..."""
+    odom_sigma_rad_per_rad: float = 0.03
+    """... and this per radian turned."""
+    step_sigma_m: float = 0.02
+    """Where no odometry links two nodes, the filter's step is stated this precise in translation ..."""
+    step_sigma_per_m: float = 0.03
+    """... growing by this per metre ..."""
+    step_sigma_rad: float = math.radians(0.5)
+    """... and this precise in heading ..."""
+    step_sigma_rad_per_m: float = math.radians(1.0)
+    """... growing by this per metre ..."""
+    step_sigma_rad_per_rad: float = 0.05
+    """... and this per radian turned."""
+    huber: float = 3.0
+    """Scan-to-scan edges whose error exceeds this many standard deviations pull linearly (Huber)."""
+    calibrate: bool = True
+    """After the last pass, scale each kind of edge's stated precision (odometry, filter steps, neighbours' matches,
+    revisits) to what its errors at the solution show, and solve once more."""
+    max_chi2: float = 9.0
+    """A revisit edge whose squared Mahalanobis error after solving exceeds this was matched around a wrong
+    estimate: it is dropped and the graph solved again."""
+    passes: int = 2
+    """Solutions; before each, the revisits are found again around the poses so far."""
+    iterations: int = 50
+    """Least-squares iterations per solution at most."""
+
+    def __post_init__(self) -> None:
+        _positive(self, "steps", "revisit_m", "revisit_rad", "revisit_bin", "window_m", "revisit_window_m",
+                  "window_rad", "max_range_m", "resolution_m", "sigma_m", "icp_sigma_m", "icp_huber_m", "icp_reach_m", "min_pinned", "beams", "cap_sigma_m", "cap_sigma_rad",
+                  "odom_sigma_m", "odom_sigma_rad", "step_sigma_m", "step_sigma_rad", "huber", "max_chi2", "passes", "iterations")
+
+
+@dataclass(frozen=True)
 class MapConfig:
     """The maps: how far the scans are ray cast, when a cell counts as occupied, the tiles particles share."""
 
@@ -406,6 +508,8 @@ class SlamConfig:
     """Finding loop closures."""
     graph: GraphConfig = field(default_factory=GraphConfig)
     """The pose graph that closes them."""
+    offline: OfflineConfig = field(default_factory=OfflineConfig)
+    """The whole log as one pose graph once the run is over."""
     map: MapConfig = field(default_factory=MapConfig)
     """The maps' ray casting, occupancy threshold and tiles."""
 

@@ -59,6 +59,7 @@ from mcnkit.slam.resample import effective_sample_size, low_variance_resample, n
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.slam.scanmotion import MotionGuess, MotionPrior, motion_covariance, sample_increments
 from mcnkit.slam.selfhits import SelfHits
+from mcnkit.slam.wholegraph import WholeGraphScans, WholeGraphStats, whole_log_graph
 from mcnkit.slam.widesearch import seen_grid, tracking_grid, unknown_motion_match, wide_match
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
@@ -146,6 +147,8 @@ class FastSlam:
                                  np.array([config.motion.unknown_window_m / 3] * 2 + [config.motion.unknown_window_rad / 3]),
                                  np.array([config.motion.prior_min_sigma_m] * 2 + [config.motion.prior_min_sigma_rad]))
         """The robot's recent tracked motion: what a scan's motion is searched around where no odometry gives it."""
+        self.whole_graph_stats: WholeGraphStats | None = None
+        """What the last whole-log graph used (``OfflineConfig``): None until one was solved."""
         self.self_hits = SelfHits(config.matching.self_hit_m, config.matching.self_hit_tolerance_m)
         """The robot's own returns (``MatchingConfig.self_hit_m``), dropped from every scan before it is used."""
         self._last_odom = np.zeros(3)
@@ -156,6 +159,7 @@ class FastSlam:
         self._update_ranges: list[NDArray[np.float32]] = []
         self._scan_stamps: list[int] = []
         self._scan_odom: list[F64] = []
+        self._scan_odom_used: list[bool] = []  # the odometry gave the motion from the scan before (OfflineConfig)
         self._scan_update: list[int] = []  # index of the last update at or before each scan
         self._scan_ranges: list[NDArray[np.float32]] = []  # every scan, for trajectory(mode="matched")
         self._scan_online: list[F64] = []  # the online pose of every scan (see SlamConfig.track_every_scan)
@@ -283,6 +287,7 @@ class FastSlam:
         if cfg.matching.deskew and frame.scan.spec.time_increment_s and not first:
             frame = self._deskewed(frame, step_move if known else None)
         beams = self._beams(frame)
+        odom_used = False
         if first:
             self.poses[:] = odom
             tracked = odom.copy()
@@ -297,6 +302,7 @@ class FastSlam:
                 scans_say = alt if self._explains_better(alt, found, beams) else found
                 if not self._unlike_prior(relative(self._scan_online[-1], scans_say), guess):  # as the robot went
                     found, tracked, cov = None, scans_say, alt_cov
+            odom_used = found is not None
             if found is not None:
                 tracked = found
                 self._last_motion = relative(self._scan_online[-1], tracked)
@@ -334,6 +340,7 @@ class FastSlam:
         self._scan_tracked.append(relative(self._history[self.n_updates - 1, self.best_index], online))
         self._scan_stamps.append(frame.stamp_ns)
         self._scan_odom.append(odom)
+        self._scan_odom_used.append(odom_used)
         self._scan_update.append(self.n_updates - 1)
         self._scan_ranges.append(np.asarray(frame.scan.ranges_m, dtype=np.float32))
         self.n_scans += 1
@@ -646,10 +653,30 @@ class FastSlam:
         if lidar is None:
             return poses
         max_range, usable = self._ranges(lidar)
+        if self.config.offline.whole_graph:
+            poses = self._whole_graph(poses, lidar, min(max_range, usable))
         laser = lidar.base_to_laser.as_array()
         returns = (beam_points(r, lidar.angles_rad, laser, max_range, min(usable, REFINE_RANGE_M), 0.0)[0]
                    for r in self._scan_ranges)
         return refine_poses(poses, returns, self.config.resolution_m)
+
+    def _whole_graph(self, poses: F64, lidar: LidarSpec, max_range_m: float) -> F64:
+        """``poses`` (one per scan) with the filter updates re-solved as one graph over the whole log
+        (:func:`mcnkit.slam.wholegraph.whole_log_graph`) and every other scan kept at its offset from the update
+        before it."""
+        nodes = self.update_scans()
+        cfg = self.config.offline
+        used = np.asarray(self._scan_odom_used, bool)
+        # node k and k + 1 are linked by the odometry when it gave every step between them
+        unused_before = np.r_[0, np.cumsum(~used)]
+        links = unused_before[nodes[1:] + 1] - unused_before[nodes[:-1] + 1] == 0
+        scans = WholeGraphScans([self._scan_ranges[k] for k in nodes], lidar.angles_rad,
+                                lidar.base_to_laser.as_array(), min(max_range_m, cfg.max_range_m))
+        solved, self.whole_graph_stats = whole_log_graph(poses[nodes], scans, np.asarray(self._scan_odom)[nodes],
+                                                         links, cfg)
+        owner = nodes[np.asarray(self._scan_update, np.int64)]  # each scan's update, as a scan index
+        update_of = np.asarray(self._scan_update, np.int64)
+        return compose(solved[update_of], relative(poses[owner], poses))
 
     def _match_scans(self, particle: int, poses: F64) -> F64:
         lidar = self._lidar

@@ -60,6 +60,10 @@ class Edges:
             np.full(n, robust),
         )
 
+    def subset(self, keep: NDArray[np.bool_]) -> Edges:
+        """The edges where ``keep`` (E,) is True."""
+        return Edges(self.i[keep], self.j[keep], self.z[keep], self.info[keep], self.robust[keep])
+
     @classmethod
     def concat(cls, parts: Sequence[Edges]) -> Edges:
         """All edges of ``parts``, in order."""

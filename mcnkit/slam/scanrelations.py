@@ -59,7 +59,7 @@ from mcnkit.slam.likelihood import refine_match
 from mcnkit.slam.proposal import match_information
 from mcnkit.types import Scan, Trajectory
 
-__all__ = ["Consistency", "consistency", "revisit_pairs", "scan_relations", "scan_returns", "sequential_pairs"]
+__all__ = ["Consistency", "consistency", "outline", "revisit_pairs", "scan_relations", "scan_returns", "sequential_pairs"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -78,7 +78,7 @@ def scan_returns(scans: Sequence[Scan], max_range_m: float = math.inf) -> list[F
     return out
 
 
-def _outline(points: F64, spacing_m: float, gap: float) -> F64:
+def outline(points: F64, spacing_m: float, gap: float) -> F64:
     """The returns (M, 2), in beam order, with points every ``spacing_m`` added between neighbours that lie closer
     than ``gap`` times their range (one surface seen by both beams)."""
     if len(points) < 2:
@@ -148,7 +148,7 @@ def scan_relations(returns_base: Sequence[F64], stamps_ns: I64, pairs: I64, cand
         a, b = a[np.hypot(a[:, 0], a[:, 1]) < reach_m], b[np.hypot(b[:, 0], b[:, 1]) < max_range_m]
         if len(a) < 10 or len(b) < 10:
             continue
-        grid = likelihood_grid(_outline(a, resolution_m, outline_gap), resolution_m, sigma_m, window_m + 1.0)
+        grid = likelihood_grid(outline(a, resolution_m, outline_gap), resolution_m, sigma_m, window_m + 1.0)
         best = None
         for centre in centres:
             found = match_scan(grid, b, centre, window_m, window_rad)

@@ -5,13 +5,14 @@ true path where odometry alone ends metres away."""
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from mcnkit.geometry import compose, relative
 from mcnkit.slam import FastSlam, SlamConfig
-from mcnkit.slam.config import LoopsConfig, MotionConfig, WideConfig
+from mcnkit.slam.config import LoopsConfig, MotionConfig, OfflineConfig, WideConfig
 from mcnkit.types import Frame, LidarSpec, Pose2D, Scan
 
 LIDAR = LidarSpec(-np.pi / 2, np.pi / 180, 181, 0.05, 10.0)
@@ -30,12 +31,12 @@ WALLS = np.array(
 )
 
 
-def cast(pose: np.ndarray, rng: np.random.Generator, spec: LidarSpec = LIDAR) -> np.ndarray:
-    """Ranges (B,) of ``spec`` from ``pose`` to the nearest wall segment, with 1 cm noise; beyond its range is no
-    return."""
+def cast(pose: np.ndarray, rng: np.random.Generator, spec: LidarSpec = LIDAR, walls: np.ndarray = WALLS) -> np.ndarray:
+    """Ranges (B,) of ``spec`` from ``pose`` to the nearest of the wall segments ``walls`` (W, 4), with 1 cm noise;
+    beyond its range is no return."""
     a = pose[2] + spec.angles_rad
     d = np.stack([np.cos(a), np.sin(a)], axis=1)[:, None, :]  # (M, 1, 2)
-    p, q = WALLS[None, :, :2], WALLS[None, :, 2:]
+    p, q = walls[None, :, :2], walls[None, :, 2:]
     e = q - p
     ao = p - pose[None, None, :2]
     den = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
@@ -322,6 +323,21 @@ def test_refined_trajectory_stays_on_the_path_and_the_map_can_be_cast_from_it(wo
     assert sum(hits.sum() for _, hits, _ in strips) > 0
     with pytest.raises(ValueError, match="one pose per update"):
         slam.best_map_strips(poses=refined)
+
+
+def test_the_whole_log_graph_solves_the_updates_again_and_carries_the_scans_between(world_run: tuple) -> None:
+    truth, _, slam, _ = world_run
+    plain = slam.config
+    try:  # the option is read when the refined trajectory is asked for
+        slam.config = replace(plain, offline=OfflineConfig(whole_graph=True))
+        solved = slam.trajectory(mode="refined").poses
+        stats = slam.whole_graph_stats
+    finally:
+        slam.config = plain
+    err = np.hypot(*(solved[:, :2] - truth[:, :2]).T)
+    assert err.mean() < 0.05 and err.max() < 0.25
+    assert stats is not None and stats.nodes == slam.n_updates
+    assert stats.step_edges > stats.nodes and stats.odometry_edges > 0
 
 
 def _stalled_turn() -> tuple[list[np.ndarray], list[Frame], int]:

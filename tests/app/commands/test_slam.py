@@ -231,6 +231,25 @@ def test_bad_settings_are_reported_by_the_name_given(tmp_path: Path, capsys: pyt
     assert "n_particles: expected int" in capsys.readouterr().err
 
 
+def test_the_whole_log_graph_is_asked_for_by_a_flag_and_its_edges_go_into_the_summary(tmp_path: Path) -> None:
+    from mcnkit.metrics import read_tum
+
+    log = tmp_path / "corridor.clf"
+    _write_clf(log)
+    runs = {}
+    for name, flags in [("default", []), ("graph", ["--slam.offline.whole-graph"])]:
+        out = tmp_path / name
+        assert _run(["slam", str(log), "--particles", "4", "--out", str(out), "--no-progress", *flags]) == 0
+        runs[name] = (json.loads((out / "summary.json").read_text()), read_tum(out / "trajectory.tum").poses)
+    assert runs["default"][0]["whole_graph"] is None and not runs["default"][0]["config"]["offline"]["whole_graph"]
+    summary, poses = runs["graph"]
+    assert summary["config"]["offline"]["whole_graph"]
+    assert summary["whole_graph"]["nodes"] == summary["filter_updates"] and summary["whole_graph"]["step_edges"] > 0
+    assert len(poses) == len(runs["default"][1])
+    # the log's robot drives 0.1 m a scan along x towards an end wall that pins every step
+    assert np.abs(poses[:, 0] - 0.1 * np.arange(len(poses))).max() < 0.05 and np.abs(poses[:, 1:]).max() < 0.05
+
+
 def test_a_scan_only_bag_runs_lidar_only_and_any_log_can(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from mcnkit.geometry import compose, relative
     from mcnkit.io import LogContent, write_log
