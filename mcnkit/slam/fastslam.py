@@ -610,8 +610,9 @@ class FastSlam:
         * ``"matched"`` (offline): the smoothed pose of every scan hill-climbed against the particle's final
           map (the update scans included), as gmapping matches at updates, without touching weights or maps;
         * ``"refined"`` (offline): the tracked poses with every scan moved onto the map of all the other scans,
-          later ones included (:func:`mcnkit.slam.refine.refine_poses`); what ``mcnkit slam`` writes as
-          ``trajectory.tum``.
+          later ones included (:func:`mcnkit.slam.refine.refine_poses`), the filter updates first solved again as
+          one graph over the whole log when ``OfflineConfig.whole_graph`` is on (:mod:`mcnkit.slam.wholegraph`);
+          what ``mcnkit slam`` writes as ``trajectory.tum``.
         """
         modes = ("tracked", "online", "gmapping", "smoothed", "matched", "refined")
         if mode not in modes:

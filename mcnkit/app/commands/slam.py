@@ -7,7 +7,8 @@ Outputs of ``mcnkit slam LOG --out DIR``:
 
 * ``trajectory.tum``: ``trajectory_tracked.tum`` refined offline, every scan moved onto the map of all the other
   scans, later ones included (``mode="refined"`` of :meth:`mcnkit.slam.FastSlam.trajectory`,
-  :mod:`mcnkit.slam.refine`); after Ctrl-C or SIGTERM the refinement is skipped and it holds the tracked
+  :mod:`mcnkit.slam.refine`; with ``--slam.offline.whole-graph`` the filter updates are first solved again as one
+  graph over the whole log, :mod:`mcnkit.slam.wholegraph`); after Ctrl-C or SIGTERM the refinement is skipped and it holds the tracked
   trajectory (``summary.json``: ``"trajectory": "tracked"``);
 * ``trajectory_tracked.tum``: the best particle's pose at every scan: its corrected poses at the filter updates
   (its ancestry, as gmapping reports it) and, in between, that pose moved by the scan-to-map tracking the filter
@@ -50,7 +51,8 @@ __all__ = ["SlamOptions", "add_slam_parser", "run_slam"]
 _DESCRIPTION = """Run grid FastSLAM (gmapping's scan-matched proposal) on a robot log and write into --out:
 
   trajectory.tum            trajectory_tracked.tum refined offline: every scan moved onto the map of all
-                            the other scans, later ones included
+                            the other scans, later ones included (--slam.offline.whole-graph: the filter
+                            updates solved again as one graph first)
   trajectory_tracked.tum    the best particle's pose at every scan (corrected at the filter updates,
                             tracked by scan matching in between)
   trajectory_online.tum     at every scan the pose of the particle that was best then (causal)
