@@ -375,7 +375,7 @@ class OfflineConfig:
 
     whole_graph: bool = False
     """Solve the whole log as one graph before the refinement (``trajectory.tum`` and the map come from its
-    solution).  Off by default: it holds a long corridor's seeds together and lowers MIT CSAIL's relations error,
+    solution).  Off unless asked: it holds a long corridor's seeds together and lowers MIT CSAIL's relations error,
     but loses ground on most Radish buildings and doubles the offline CPU (docs/slam.md, "The whole log as one
     graph")."""
     steps: int = 2

@@ -118,7 +118,7 @@ def test_every_slam_config_field_has_a_flag_with_help() -> None:
     slam = add_slam_parser(parser.add_subparsers(required=True))
     options = {a.dest: a for a in slam._actions}
     leaves = list(_leaves(SlamConfig))
-    assert len(leaves) == 96
+    assert len(leaves) == 131
     for dest, flag in leaves:
         action = options[dest]
         assert flag in action.option_strings
@@ -180,7 +180,7 @@ def test_section_flags_and_a_toml_file_with_sections_rerun_bit_for_bit(
     cfg = summary["config"]
     assert (cfg["n_particles"], cfg["updates"]["linear_m"], cfg["loops"]["closure"], cfg["motion"]["srr"]) == \
         (5, 0.3, False, 0.2)
-    assert cfg["matching"]["sigma_m2"] == 0.05 and len(cfg) == 9  # every section, defaults included
+    assert cfg["matching"]["sigma_m2"] == 0.05 and len(cfg) == 10  # every section, defaults included
     again = tmp_path / "again"
     assert _run(["slam", str(log), "--config", str(first / "summary.json"), "--out", str(again), "--no-progress"]) == 0
     assert (again / "trajectory.tum").read_bytes() == (first / "trajectory.tum").read_bytes()
