@@ -135,8 +135,8 @@ class SlamOutputs:
                 "trajectory": main_mode,  # what trajectory.tum holds (see mcnkit.app.commands.slam)
                 "loop_closures": slam.loops.stats.accepted,
                 "loop_corrections": slam.n_loop_corrections,
-                "whole_graph": (asdict(slam.whole_graph_stats)  # mcnkit.slam.wholegraph: its edges
-                                if slam.whole_graph_stats is not None and main_mode == "refined" else None),
+                # mcnkit.slam.wholegraph's edges (solved only with the option, for the refined trajectory)
+                "whole_graph": asdict(slam.whole_graph_stats) if slam.whole_graph_stats is not None else None,
                 "lidar_only": slam.lidar_only,  # no odometry reached the filter (none in the log, or ignored)
                 "unknown_motion_scans": slam.n_unknown_motion,  # no odometry for them (Frame.odom_known, or ignored)
                 "odometry_rejected_scans": slam.n_odometry_rejected,  # odometry the scans contradicted

@@ -4,8 +4,9 @@ Every field that gmapping has keeps its meaning (its ROS parameter name is given
 be compared with gmapping's C++ core (its figures: `benchmarks/bench_slam.py`).  The sections: ``motion`` (the
 odometry's noise), ``matching`` (the scan matcher), ``updates`` (when and how the particles are updated), ``wide``
 (the wide search that recovers bad odometry), ``loops`` (finding loop closures), ``graph`` (the pose graph that
-closes them), ``offline`` (the whole log as one pose graph once the run is over) and ``map`` (the maps' ray casting and tiles).  On the command line they are ``--slam.SECTION.FIELD``
-flags, in a TOML file ``[slam.SECTION]`` tables.
+closes them), ``offline`` (the whole log as one pose graph once the run is over) and ``map`` (the maps' ray
+casting and tiles).  On the command line they are ``--slam.SECTION.FIELD`` flags, in a TOML file
+``[slam.SECTION]`` tables.
 
 Example:
     >>> cfg = SlamConfig(n_particles=30, loops=LoopsConfig(closure=False))
@@ -442,11 +443,11 @@ class OfflineConfig:
     huber: float = 3.0
     """Scan-to-scan edges whose error exceeds this many standard deviations pull linearly (Huber)."""
     calibrate: bool = True
-    """After the last pass, scale each kind of edge's stated precision (odometry, filter steps, neighbours' matches,
+    """After each pass, scale each kind of edge's stated precision (odometry, filter steps, neighbours' matches,
     revisits) to what its errors at the solution show, and solve once more."""
     max_chi2: float = 9.0
-    """A revisit edge whose squared Mahalanobis error after solving exceeds this was matched around a wrong
-    estimate: it is dropped and the graph solved again."""
+    """A revisit or odometry edge whose squared Mahalanobis error after solving exceeds this is dropped and the
+    graph solved again (a revisit matched around a wrong estimate, odometry the scans contradict)."""
     passes: int = 2
     """Solutions; before each, the revisits are found again around the poses so far."""
     iterations: int = 50
@@ -454,8 +455,9 @@ class OfflineConfig:
 
     def __post_init__(self) -> None:
         _positive(self, "steps", "revisit_m", "revisit_rad", "revisit_bin", "window_m", "revisit_window_m",
-                  "window_rad", "max_range_m", "resolution_m", "sigma_m", "icp_sigma_m", "icp_huber_m", "icp_reach_m", "min_pinned", "beams", "cap_sigma_m", "cap_sigma_rad",
-                  "odom_sigma_m", "odom_sigma_rad", "step_sigma_m", "step_sigma_rad", "huber", "max_chi2", "passes", "iterations")
+                  "window_rad", "max_range_m", "resolution_m", "sigma_m", "icp_sigma_m", "icp_huber_m", "icp_reach_m",
+                  "min_pinned", "beams", "cap_sigma_m", "cap_sigma_rad", "odom_sigma_m", "odom_sigma_rad",
+                  "step_sigma_m", "step_sigma_rad", "huber", "max_chi2", "passes", "iterations")
 
 
 @dataclass(frozen=True)

@@ -59,7 +59,8 @@ from mcnkit.slam.likelihood import refine_match
 from mcnkit.slam.proposal import match_information
 from mcnkit.types import Scan, Trajectory
 
-__all__ = ["Consistency", "consistency", "outline", "revisit_pairs", "scan_relations", "scan_returns", "sequential_pairs"]
+__all__ = ["Consistency", "consistency", "outline", "revisit_pairs", "scan_relations", "scan_returns",
+           "sequential_pairs"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]

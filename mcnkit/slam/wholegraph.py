@@ -167,7 +167,8 @@ def _point_to_line(surface: tuple[cKDTree, F64, NDArray[np.bool_]], target: F64,
     used = 0
     for it in range(iterations):
         c, s = math.cos(pose[2]), math.sin(pose[2])
-        q = np.column_stack([pose[0] + c * points[:, 0] - s * points[:, 1], pose[1] + s * points[:, 0] + c * points[:, 1]])
+        q = np.column_stack([pose[0] + c * points[:, 0] - s * points[:, 1],
+                             pose[1] + s * points[:, 0] + c * points[:, 1]])
         dist, idx = tree.query(q, distance_upper_bound=max(config.icp_reach_m, reach * (1 - 2 * it / iterations)))
         ok = np.isfinite(dist)
         ok[ok] = flat[idx[ok]]
@@ -242,7 +243,8 @@ def _match(scans: WholeGraphScans, returns: Sequence[F64], pairs: I64, poses: F6
         info = turn.T @ _unpinned_dropped(fine[1], config.min_pinned) @ turn
         rows.append((int(i), int(j), fine[0], cap_information(info, cap)))
     n = len(rows)
-    return Edges(np.array([r[0] for r in rows], np.int64).reshape(n), np.array([r[1] for r in rows], np.int64).reshape(n),
+    return Edges(np.array([r[0] for r in rows], np.int64).reshape(n),
+                 np.array([r[1] for r in rows], np.int64).reshape(n),
                  np.array([r[2] for r in rows], np.float64).reshape(n, 3),
                  np.array([r[3] for r in rows], np.float64).reshape(n, 3, 3), np.ones(n, bool))
 
