@@ -141,6 +141,9 @@ def main() -> int:
     parser.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1; each run is one process)")
     parser.add_argument("--out", type=Path, default=None,
                         help="output stem (default benchmarks/results/NAME_consistency, NAME from the log's file name)")
+    parser.add_argument("--slam-option", action="append", default=[], metavar="FLAG",
+                        help="a flag passed on to every mcnkit slam run, repeatable; give it with '=' "
+                             "(--slam-option=--slam.offline.whole-graph)")
     args = parser.parse_args()
     if not args.log.exists():
         parser.error(f"log {args.log}: no such file")
@@ -157,7 +160,8 @@ def main() -> int:
         _odometry(args.log, odometry)
 
         def run(seed: int) -> Path:
-            _run(slam_command(args.log, seed, tmp / f"seed{seed}"), f"mcnkit slam {args.log} --seed {seed}")
+            _run(slam_command(args.log, seed, tmp / f"seed{seed}", args.slam_option),
+                 f"mcnkit slam {args.log} --seed {seed}")
             return tmp / f"seed{seed}" / "trajectory.tum"
 
         print(f"{name}: mcnkit slam at seeds {' '.join(map(str, args.seeds))}, {max(1, args.jobs)} at a time",
@@ -181,7 +185,8 @@ def main() -> int:
         common = _common_shape_ate(tracks["reference"].poses, [tracks[label].poses for label in runs])
     _plot({k: v for k, v in tracks.items() if k != "odometry"}, Path(f"{out}.png"), name)
     lines = [f"# {name}: ATE against the reference beside agreement with the log's own scans",
-             "", f"`python -m benchmarks.studies.corridor_consistency LOG --seeds {' '.join(map(str, args.seeds))}` "
+             "", f"`python -m benchmarks.studies.corridor_consistency LOG --seeds {' '.join(map(str, args.seeds))}"
+             f"{''.join(f' --slam-option={o}' for o in args.slam_option)}` "
              "(mean relation error, lower = agrees better; steps: on the odometry's "
              f"{steps['reference']['straight_steps']} straight drives, the forward step's spread about the odometry's "
              "and its roughness)",
@@ -206,7 +211,8 @@ def main() -> int:
     text = "\n".join(lines) + "\n"
     print(text)
     Path(f"{out}.md").write_text(text)
-    Path(f"{out}.json").write_text(json.dumps({"log": args.log.name, "seeds": args.seeds, "ate_m": ate,
+    Path(f"{out}.json").write_text(json.dumps({"log": args.log.name, "seeds": args.seeds,
+                                                    "slam_options": args.slam_option, "ate_m": ate,
                                                     "consistency": consistency, "steps": steps,
                                                     "mean_path_ate_m": common}, indent=2) + "\n")
     return 0
