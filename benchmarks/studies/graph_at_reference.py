@@ -46,7 +46,7 @@ def _solve(log: Path) -> dict:
     from mcnkit.io import open_log
     from mcnkit.metrics import align_rigid_2d
     from mcnkit.slam.config import OfflineConfig, UpdatesConfig
-    from mcnkit.slam.wholegraph import WholeGraphScans, whole_log_graph
+    from mcnkit.slam.wholegraph import WholeGraphScans, odometry_links, whole_log_graph
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the reader's notes on stamps: `mcnkit info` prints them
@@ -68,9 +68,7 @@ def _solve(log: Path) -> dict:
             nodes.append(k)
             linear_m = angular_rad = 0.0
     at = np.asarray(nodes)
-    # node k and k + 1 are linked by the odometry when it gave every step between them
-    unknown_before = np.r_[0, np.cumsum(~known)]
-    odom_links = unknown_before[at[1:]] - unknown_before[at[:-1]] == 0
+    odom_links = odometry_links(at, np.r_[False, known])
     ref = truth.poses[at]
     spec = frames[0].scan.spec
     config = OfflineConfig()

@@ -430,13 +430,14 @@ class OfflineConfig:
     """... by this per metre of the step ..."""
     odom_sigma_rad_per_rad: float = 0.03
     """... and this per radian turned."""
-    step_sigma_m: float = 0.02
-    """Where no odometry links two nodes, the filter's step is stated this precise in translation ..."""
-    step_sigma_per_m: float = 0.03
+    step_sigma_m: float = GraphConfig.step_sigma_m
+    """Where no odometry links two nodes, the filter's step is stated this precise in translation (as the online
+    graph states it, ``GraphConfig``) ..."""
+    step_sigma_per_m: float = GraphConfig.step_sigma_per_m
     """... growing by this per metre ..."""
-    step_sigma_rad: float = math.radians(0.5)
+    step_sigma_rad: float = GraphConfig.step_sigma_rad
     """... and this precise in heading ..."""
-    step_sigma_rad_per_m: float = math.radians(1.0)
+    step_sigma_rad_per_m: float = GraphConfig.step_sigma_rad_per_m
     """... growing by this per metre ..."""
     step_sigma_rad_per_rad: float = 0.05
     """... and this per radian turned."""

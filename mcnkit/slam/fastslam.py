@@ -59,7 +59,7 @@ from mcnkit.slam.resample import effective_sample_size, low_variance_resample, n
 from mcnkit.slam.scanmatch import beam_points, match_particles, match_scans_to_map, score_poses
 from mcnkit.slam.scanmotion import MotionGuess, MotionPrior, motion_covariance, sample_increments
 from mcnkit.slam.selfhits import SelfHits
-from mcnkit.slam.wholegraph import WholeGraphScans, WholeGraphStats, whole_log_graph
+from mcnkit.slam.wholegraph import WholeGraphScans, WholeGraphStats, odometry_links, whole_log_graph
 from mcnkit.slam.widesearch import seen_grid, tracking_grid, unknown_motion_match, wide_match
 from mcnkit.types import Frame, GridSpec, LidarSpec, OccupancyGrid, TernaryMap, Trajectory
 
@@ -667,16 +667,13 @@ class FastSlam:
         before it."""
         nodes = self.update_scans()
         cfg = self.config.offline
-        used = np.asarray(self._scan_odom_used, bool)
-        # node k and k + 1 are linked by the odometry when it gave every step between them
-        unused_before = np.r_[0, np.cumsum(~used)]
-        links = unused_before[nodes[1:] + 1] - unused_before[nodes[:-1] + 1] == 0
+        links = odometry_links(nodes, np.asarray(self._scan_odom_used, bool))
         scans = WholeGraphScans([self._scan_ranges[k] for k in nodes], lidar.angles_rad,
                                 lidar.base_to_laser.as_array(), min(max_range_m, cfg.max_range_m))
         solved, self.whole_graph_stats = whole_log_graph(poses[nodes], scans, np.asarray(self._scan_odom)[nodes],
                                                          links, cfg)
-        owner = nodes[np.asarray(self._scan_update, np.int64)]  # each scan's update, as a scan index
         update_of = np.asarray(self._scan_update, np.int64)
+        owner = nodes[update_of]  # each scan's update, as a scan index
         return compose(solved[update_of], relative(poses[owner], poses))
 
     def _match_scans(self, particle: int, poses: F64) -> F64:

@@ -46,7 +46,7 @@ from mcnkit.slam.posegraph import Edges, edge_errors, optimize
 from mcnkit.slam.proposal import cap_information
 from mcnkit.slam.scanrelations import outline
 
-__all__ = ["WholeGraphScans", "WholeGraphStats", "revisit_pairs_by_path", "whole_log_graph"]
+__all__ = ["WholeGraphScans", "WholeGraphStats", "odometry_links", "revisit_pairs_by_path", "whole_log_graph"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -85,6 +85,15 @@ class WholeGraphStats:
     filter_step_edges: int = 0
     """Where no odometry edge is."""
     passes: int = 0
+
+
+def odometry_links(nodes: I64, odometry_gave: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """(K - 1,) True where the odometry gave every step from node ``k`` to node ``k + 1``: ``nodes`` (K,) are scan
+    indices, ``odometry_gave`` (N,) says of each scan whether the odometry gave the motion from the scan before."""
+    nodes = np.asarray(nodes, np.int64)
+    missing_before = np.r_[0, np.cumsum(~np.asarray(odometry_gave, bool))]
+    out: NDArray[np.bool_] = missing_before[nodes[1:] + 1] - missing_before[nodes[:-1] + 1] == 0
+    return out
 
 
 def revisit_pairs_by_path(poses: F64, path_m: F64, distance_m: float, turn_rad: float, min_path_m: float,

@@ -10,7 +10,7 @@ import pytest
 
 from mcnkit.geometry import compose, relative
 from mcnkit.slam.config import OfflineConfig
-from mcnkit.slam.wholegraph import WholeGraphScans, _seen_by, revisit_pairs_by_path, whole_log_graph
+from mcnkit.slam.wholegraph import WholeGraphScans, _seen_by, odometry_links, revisit_pairs_by_path, whole_log_graph
 from mcnkit.types import LidarSpec
 from tests.slam.test_fastslam import LIDAR, _box, cast
 
@@ -134,3 +134,8 @@ def test_revisits_pair_two_passes_of_one_place_and_nothing_within_one_pass() -> 
     assert np.all(path[pairs[:, 1]] - path[pairs[:, 0]] > 25)  # a lap apart, never neighbours of one lap
     assert np.all(np.hypot(*(poses[pairs[:, 0], :2] - poses[pairs[:, 1], :2]).T) < 1.0)
     assert len(np.unique(pairs // 2, axis=0)) == len(pairs)  # one pair per 2 × 2 block
+
+
+def test_odometry_links_say_where_the_odometry_gave_every_step_between_two_nodes():
+    gave = np.array([False, True, True, False, True, True])  # scan 3's motion came from the scans alone
+    assert odometry_links(np.array([0, 2, 4, 5]), gave).tolist() == [True, False, True]
