@@ -11,7 +11,7 @@ if TYPE_CHECKING:
     from mcnkit.io.carmen import CarmenLog
     from mcnkit.io.content import FORMATS, LogContent
     from mcnkit.io.errors import LogError, LogWarning
-    from mcnkit.io.open import open_log
+    from mcnkit.io.open import looks_like_log, open_log
     from mcnkit.io.writers import infer_format, write_log
 
 __all__ = [
@@ -24,6 +24,7 @@ __all__ = [
     "LogWarning",
     "TopicInfo",
     "infer_format",
+    "looks_like_log",
     "open_log",
     "write_log",
 ]
@@ -33,6 +34,6 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "mcnkit.io.carmen": ("CarmenLog",),
     "mcnkit.io.content": ("FORMATS", "LogContent"),
     "mcnkit.io.errors": ("LogError", "LogWarning"),
-    "mcnkit.io.open": ("open_log",),
+    "mcnkit.io.open": ("looks_like_log", "open_log"),
     "mcnkit.io.writers": ("infer_format", "write_log"),
 })

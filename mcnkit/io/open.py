@@ -71,6 +71,23 @@ def open_log(path: str | Path, *, scan_topic: str | None = None, odom: str | Non
     return log
 
 
+def looks_like_log(path: str | Path) -> bool:
+    """Whether ``path`` carries the signature of a log :func:`open_log` reads (the table above), without reading
+    further: for the hint a command gives when a log stands where it wants another kind of file."""
+    path = Path(path)
+    try:
+        if path.is_dir():
+            return (path / "metadata.yaml").is_file() or any(
+                f.is_file() for pattern in ("*.db3", "*.mcap", "*.db3.zstd", "*.mcap.zstd") for f in path.glob(pattern))
+        if not path.is_file():
+            return False
+        with open(path, "rb") as f:
+            head = f.read(16)
+        return head.startswith((_ROS1_MAGIC, _MCAP_MAGIC)) or compression_of(head) is not None or is_carmen(path)
+    except (OSError, ValueError, LogError):
+        return False
+
+
 def _open_file(path: Path) -> tuple[str, RawSource | None]:
     with open(path, "rb") as f:
         head = f.read(16)

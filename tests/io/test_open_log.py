@@ -46,6 +46,19 @@ def test_info_reads_every_fixture(shared_data: Path, name: str) -> None:
         assert sum(counts.values()) == 6074
 
 
+def test_looks_like_log_knows_every_format_by_its_signature_alone(shared_data: Path, tmp_path: Path) -> None:
+    """``looks_like_log``: the signature check behind a command's "a robot log, not a trajectory file" hint."""
+    from mcnkit.io import looks_like_log
+
+    logs = [shared_data / "fixtures" / name for name in FIXTURES] + [
+        shared_data / "reallab/radish/aces-corrected.log.gz", shared_data / "reallab/dpslam-loop5/loop5.log"]
+    assert [p for p in logs if not looks_like_log(p)] == []
+    (tmp_path / "t.tum").write_text("0.0 1 2 0 0 0 0 1\n")
+    (tmp_path / "empty").write_bytes(b"")
+    (tmp_path / "folder").mkdir()
+    assert not any(looks_like_log(tmp_path / n) for n in ("t.tum", "empty", "folder", "missing.bag"))
+
+
 def test_compressed_and_unsorted_bags_read_the_same_messages(shared_data: Path) -> None:
     root = shared_data / "fixtures" / "rosbag_js"
 

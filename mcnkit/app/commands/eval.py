@@ -157,17 +157,41 @@ class _Refused(Exception):
     """One line for ``fail``: ``FILE: problem``."""
 
 
-def _read(reader: Any, path: Path, what: str) -> Any:
+_ORDER = {
+    "relations": "'mcnkit eval relations' takes TRAJ, then RELATIONS",
+    "ate": "'mcnkit eval ate' takes TRAJ, then REFERENCE (a TUM file or a log)",
+    "consistency": "'mcnkit eval consistency' takes LOG, then TRAJ...",
+}
+
+
+def _read(reader: Any, path: Path, what: str, command: str | None = None) -> Any:
+    """``reader(path)``, or :class:`_Refused` with one line; where a robot log stands in the place of the file
+    ``command`` wants, the line says so and gives the command's order of arguments."""
+    from mcnkit.io import looks_like_log
+
     try:
         value = reader(path)
-    except OSError as err:
-        raise _Refused(f"{path}: cannot read the {what}: {err.strerror or err}") from err
-    except ValueError as err:
+    except (OSError, ValueError) as err:
+        if command is not None and looks_like_log(path):
+            raise _Refused(f"{path}: a robot log, not a {what} file ({_ORDER[command]})") from err
+        if path.is_dir() and (path / "trajectory.tum").is_file():  # an `mcnkit slam --out` folder
+            raise _Refused(f"{path}: a folder, not a {what} file (its trajectory: {path / 'trajectory.tum'})") from err
+        if isinstance(err, OSError):
+            raise _Refused(f"{path}: cannot read the {what}: {err.strerror or err}") from err
         text = str(err).splitlines()[0] if str(err).strip() else type(err).__name__
         raise _Refused(text if text.startswith(str(path)) else f"{path}: not a {what} file ({text})") from err
     if len(value) == 0:
         raise _Refused(f"{path}: no {'relations' if what == 'relations' else 'poses'} in this {what} file")
     return value
+
+
+def _reads_as(reader: Any, path: Path) -> bool:
+    """Whether ``reader`` reads ``path`` without an error."""
+    try:
+        reader(path)
+    except (OSError, ValueError):
+        return False
+    return True
 
 
 def _reference(path: Path) -> Trajectory:
@@ -208,7 +232,7 @@ def run_eval_relations(args: argparse.Namespace) -> int:
     from mcnkit.metrics import EvaluationError, read_relations, read_tum, relations_error
 
     try:
-        traj: Trajectory = _read(read_tum, args.trajectory, "trajectory")
+        traj: Trajectory = _read(read_tum, args.trajectory, "trajectory", "relations")
         rel: Relations = _read(read_relations, args.relations, "relations")
         err = relations_error(traj, rel, args.tolerance_s, min_matched=args.min_matched,
                               min_fraction=args.min_fraction)
@@ -235,7 +259,7 @@ def run_eval_ate(args: argparse.Namespace) -> int:
 
     options = {"match": args.match, "min_matched": args.min_matched, "min_fraction": args.min_fraction}
     try:
-        traj: Trajectory = _read(read_tum, args.trajectory, "trajectory")
+        traj: Trajectory = _read(read_tum, args.trajectory, "trajectory", "ate")
         ref: Trajectory = _reference(args.reference)
         ate = absolute_trajectory_error(traj, ref, args.tolerance_s, **options)
         rpe = relative_pose_error(traj, ref, args.tolerance_s, **options)
@@ -283,7 +307,7 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
     import numpy as np
 
     from mcnkit.app.exits import fail
-    from mcnkit.io import open_log
+    from mcnkit.io import LogError, open_log
     from mcnkit.metrics import read_tum
     from mcnkit.slam.scanrelations import consistency, scan_returns
 
@@ -297,13 +321,17 @@ def run_eval_consistency(args: argparse.Namespace) -> int:
         except OutputError as exc:
             return fail(_command(args), exc)
     try:
-        trajectories = [_read(read_tum, path, "trajectory") for path in args.trajectories]
+        trajectories = [_read(read_tum, path, "trajectory", "consistency") for path in args.trajectories]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the reader's notes on stamps and odometry: `mcnkit info` prints them
+            with open_log(args.log) as reader:
+                frames = list(reader.frames())
     except _Refused as exc:
         return fail(_command(args), exc)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the reader's notes on stamps and odometry: `mcnkit info` prints them
-        with open_log(args.log) as reader:
-            frames = list(reader.frames())
+    except LogError:
+        if args.log.is_file() and _reads_as(read_tum, args.log):
+            return fail(_command(args), f"{args.log}: a TUM trajectory, not a robot log ({_ORDER['consistency']})")
+        raise
     if len(frames) < 3:
         return fail(_command(args), f"{args.log}: {len(frames)} scans: too few to measure relations")
     stamps = np.array([frame.stamp_ns for frame in frames], np.int64)

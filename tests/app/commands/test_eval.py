@@ -85,6 +85,35 @@ def test_unreadable_and_empty_inputs_are_one_line(tmp_path: Path, capsys: pytest
         assert err.startswith(f"mcnkit eval ate: {tmp_path / bad}: ") and why in err, err
 
 
+def test_a_log_given_where_a_trajectory_goes_is_named_with_the_commands_order(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Arguments in the wrong order get one line that says which file is the log and what the command takes."""
+    from mcnkit.io import LogContent, write_log
+    from tests.conftest import make_frames
+
+    bag = write_log(tmp_path / "run.bag", LogContent(make_frames(20)))
+    folder = write_log(tmp_path / "ros2", LogContent(make_frames(20)), "ros2-mcap")
+    write_tum(tmp_path / "est.tum", _traj(20, 1_000_000_000, 100_000_000))
+    (tmp_path / "out").mkdir()
+    write_tum(tmp_path / "out/trajectory.tum", _traj(20))
+    cases = (
+        (["ate", str(bag), str(tmp_path / "est.tum")], f"{bag}: a robot log, not a trajectory file "
+         "('mcnkit eval ate' takes TRAJ, then REFERENCE (a TUM file or a log))"),
+        (["ate", str(folder), str(bag)], f"{folder}: a robot log, not a trajectory file"),
+        (["relations", str(bag), str(tmp_path / "est.tum")], "('mcnkit eval relations' takes TRAJ, then RELATIONS)"),
+        (["consistency", str(tmp_path / "est.tum"), str(bag)], f"{bag}: a robot log, not a trajectory file "
+         "('mcnkit eval consistency' takes LOG, then TRAJ...)"),
+        (["consistency", str(tmp_path / "est.tum"), str(tmp_path / "est.tum")],
+         f"{tmp_path / 'est.tum'}: a TUM trajectory, not a robot log ('mcnkit eval consistency' takes LOG"),
+        (["ate", str(tmp_path / "out"), str(bag)], f"{tmp_path / 'out'}: a folder, not a trajectory file (its "
+         f"trajectory: {tmp_path / 'out/trajectory.tum'})"),
+    )
+    for argv, said in cases:
+        assert main(["eval", *argv, "--no-progress"] if argv[0] == "consistency" else ["eval", *argv]) == 2
+        err = _err(capsys)
+        assert said in err, (argv, err)
+
+
 def test_library_refuses_too_and_sorts_unsorted_stamps() -> None:
     ref = _traj(20)
     with pytest.raises(EvaluationError, match="only 0 of 1 relations"):
