@@ -83,7 +83,13 @@ def looks_like_log(path: str | Path) -> bool:
             return False
         with open(path, "rb") as f:
             head = f.read(16)
-        return head.startswith((_ROS1_MAGIC, _MCAP_MAGIC)) or compression_of(head) is not None or is_carmen(path)
+        if head.startswith((_ROS1_MAGIC, _MCAP_MAGIC)) or is_carmen(path):
+            return True
+        kind = compression_of(head)
+        if kind is None:
+            return False
+        with open_decompressed(path, kind) as stream:
+            return bool(stream.read(len(_MCAP_MAGIC)).startswith(_MCAP_MAGIC))
     except (OSError, ValueError, LogError):
         return False
 

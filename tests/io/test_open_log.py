@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import warnings
 from pathlib import Path
 
@@ -55,8 +56,9 @@ def test_looks_like_log_knows_every_format_by_its_signature_alone(shared_data: P
     assert [p for p in logs if not looks_like_log(p)] == []
     (tmp_path / "t.tum").write_text("0.0 1 2 0 0 0 0 1\n")
     (tmp_path / "empty").write_bytes(b"")
+    (tmp_path / "t.tum.gz").write_bytes(gzip.compress(b"0.0 1 2 0 0 0 0 1\n"))  # compressed, but no log inside
     (tmp_path / "folder").mkdir()
-    assert not any(looks_like_log(tmp_path / n) for n in ("t.tum", "empty", "folder", "missing.bag"))
+    assert not any(looks_like_log(tmp_path / n) for n in ("t.tum", "t.tum.gz", "empty", "folder", "missing.bag"))
 
 
 def test_compressed_and_unsorted_bags_read_the_same_messages(shared_data: Path) -> None:
