@@ -376,17 +376,19 @@ class OfflineConfig:
 
     whole_graph: bool = False
     """Solve the whole log as one graph before the refinement (``trajectory.tum`` and the map come from its
-    solution).  Off unless asked: it holds a long corridor's seeds together and lowers MIT CSAIL's relations error,
-    but loses ground on most Radish buildings and doubles the offline CPU (docs/slam.md, "The whole log as one
-    graph")."""
+    solution).  Off unless asked: it holds a long corridor's seeds together and lowers MIT CSAIL's relations error
+    and FHW's ATE, but loses ground on Acapulco and the Freiburg campus and about doubles a run's CPU (docs/slam.md,
+    "The whole log as one graph")."""
     steps: int = 2
     """Each node is matched with the next this many nodes."""
-    revisit_m: float = 4.0
-    """Two nodes of different passes within this distance ..."""
+    revisit_m: float = 8.0
+    """Two nodes within this distance ..."""
     revisit_rad: float = 1.0
     """... and this heading of each other are matched (a revisit) ..."""
-    revisit_path_m: float = 10.0
-    """... when at least this much driving lies between them."""
+    revisit_path_m: float = 3.0
+    """... when at least this much driving lies between them: another pass through one place, or the same pass
+    farther on than the next ``steps`` nodes (a chain of neighbour matches alone lets the heading wander from pair
+    to pair; matches across the whole stretch a scan overlaps hold it, as the filter's scan-to-map match does)."""
     revisit_bin: int = 2
     """One revisit pair per block of this many × this many nodes."""
     window_m: float = 0.3

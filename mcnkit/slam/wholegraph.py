@@ -1,5 +1,5 @@
 """The whole log as one pose graph, solved once the run is over: every filter update linked to its neighbours and
-to the updates of other passes by what their scans measure of each other, and by the odometry.
+to the other updates that see the same place by what their scans measure of each other, and by the odometry.
 
 Online, the loop closer's graph (:mod:`mcnkit.slam.loops`) links the filter updates by the filter's own steps plus
 the loop matches it found while driving.  Where a corridor pins nothing along its axis, the steps there say less
@@ -7,9 +7,10 @@ than they claim, and a loop's misfit lands on whichever stretch costs least: see
 metres apart, each consistent with its scans.  Once the log is over, :func:`whole_log_graph` builds the graph that
 every scan supports:
 
-- **scan-to-scan edges** between each node and the next ``steps`` nodes, and between nodes of two passes through
-  one place (*revisits*: within ``revisit_m`` and ``revisit_rad`` of each other, at least ``revisit_path_m`` of
-  driving apart).  Scan ``j`` is found on scan ``i`` around their current relative pose by a correlative search
+- **scan-to-scan edges** between each node and the next ``steps`` nodes, and between nodes that see one place
+  (*revisits*: within ``revisit_m`` and ``revisit_rad`` of each other, at least ``revisit_path_m`` of driving
+  apart: two passes through it, or two nodes of one pass beyond the next ``steps``; matched only with their
+  neighbours, the nodes' headings wander a few tenths of a degree from pair to pair, adding up over a loop).  Scan ``j`` is found on scan ``i`` around their current relative pose by a correlative search
   on ``i``'s likelihood field, then laid onto ``i``'s outline by point-to-line ICP: a grid's cells place a wall to
   a few tenths of a degree per pair, the outline's lines to a few hundredths.  Only the returns of ``j`` that
   scan ``i`` saw take part (a return of ``i`` in that direction at least as far, and its neighbours too): the
