@@ -77,42 +77,55 @@ def looks_like_log(path: str | Path) -> bool:
     path = Path(path)
     try:
         if path.is_dir():
-            return (path / "metadata.yaml").is_file() or any(
-                f.is_file() for pattern in ("*.db3", "*.mcap", "*.db3.zstd", "*.mcap.zstd") for f in path.glob(pattern))
+            return (path / "metadata.yaml").is_file() or bool(_bag_files_by_name(path))
         if not path.is_file():
             return False
-        with open(path, "rb") as f:
-            head = f.read(16)
-        if head.startswith((_ROS1_MAGIC, _MCAP_MAGIC)) or is_carmen(path):
-            return True
-        kind = compression_of(head)
-        if kind is None:
-            return False
-        with open_decompressed(path, kind) as stream:
-            return bool(stream.read(len(_MCAP_MAGIC)).startswith(_MCAP_MAGIC))
+        _signature(path)  # raises LogError for no log
+        return True
     except (OSError, ValueError, LogError):
         return False
 
 
-def _open_file(path: Path) -> tuple[str, RawSource | None]:
+def _signature(path: Path) -> tuple[str, str | None]:
+    """What the first bytes of the file ``path`` make it: ``("ros1" | "mcap" | "carmen", its compression or None)``;
+    :class:`LogError` when they make it no log."""
     with open(path, "rb") as f:
         head = f.read(16)
     if not head:
         raise LogError(path, "empty file")
     if head.startswith(_ROS1_MAGIC):
-        return "ros1", Ros1BagSource(path)
+        return "ros1", None
     if head.startswith(_MCAP_MAGIC):
-        return _mcap_format(McapSource(path, [path]))
+        return "mcap", None
     kind = compression_of(head)
     if kind is not None and (kind != "gzip" or not is_carmen(path)):
         with open_decompressed(path, kind) as stream:
             inner = stream.read(len(_MCAP_MAGIC))
         if inner.startswith(_MCAP_MAGIC):
-            return _mcap_format(McapSource(path, [path], compression=kind))
+            return "mcap", kind
         raise LogError(path, "a compressed file that holds no MCAP (compressed ROS1 bags: use bag chunk compression)")
     if is_carmen(path):
         return "carmen", None
     raise LogError(path, "not a robot log: no ROS1 bag, MCAP, CARMEN or DP-SLAM signature")
+
+
+def _open_file(path: Path) -> tuple[str, RawSource | None]:
+    kind, compression = _signature(path)
+    if kind == "ros1":
+        return "ros1", Ros1BagSource(path)
+    if kind == "mcap":
+        return _mcap_format(McapSource(path, [path], compression=compression))
+    return "carmen", None
+
+
+def _bag_files_by_name(folder: Path) -> list[Path]:
+    """A rosbag2 folder's bag files by their names alone (no ``metadata.yaml``: a recording cut short): its ``.db3``
+    files, else its ``.mcap`` files, whole-file compressed ones (``.zstd``) too."""
+    for suffix in (".db3", ".mcap"):
+        files = sorted([*folder.glob(f"*{suffix}"), *folder.glob(f"*{suffix}.zstd")])
+        if files:
+            return files
+    return []
 
 
 def _mcap_format(source: McapSource) -> tuple[str, RawSource]:
@@ -135,11 +148,8 @@ def _open_ros2_folder(path: Path) -> tuple[str, RawSource]:
         if missing := [f.name for f in files if not f.exists()]:
             raise LogError(path, f"bag files listed in metadata.yaml are missing: {missing}")
         mode, _ = mode_and_format(info, path)
-    else:  # no metadata (a recording cut short): the files by their names, whole-file compressed ones too
-        for suffix in (".db3", ".mcap"):
-            files = sorted([*path.glob(f"*{suffix}"), *path.glob(f"*{suffix}.zstd")])
-            if files:
-                break
+    else:  # no metadata (a recording cut short): the files by their names
+        files = _bag_files_by_name(path)
         storage = "sqlite3" if files and ".db3" in files[0].name else "mcap"
     if not files:
         raise LogError(path, "a folder that is not a ROS2 bag (no metadata.yaml, no .db3 or .mcap files)")

@@ -387,8 +387,7 @@ class OfflineConfig:
     """... and this heading of each other are matched (a revisit) ..."""
     revisit_path_m: float = 3.0
     """... when at least this much driving lies between them: another pass through one place, or the same pass
-    farther on than the next ``steps`` nodes (a chain of neighbour matches alone lets the heading wander from pair
-    to pair; matches across the whole stretch a scan overlaps hold it, as the filter's scan-to-map match does)."""
+    farther on than the next ``steps`` nodes (why: :mod:`mcnkit.slam.wholegraph`)."""
     revisit_bin: int = 2
     """One revisit pair per block of this many × this many nodes."""
     window_m: float = 0.3

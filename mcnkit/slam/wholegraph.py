@@ -10,8 +10,9 @@ every scan supports:
 - **scan-to-scan edges** between each node and the next ``steps`` nodes, and between nodes that see one place
   (*revisits*: within ``revisit_m`` and ``revisit_rad`` of each other, at least ``revisit_path_m`` of driving
   apart: two passes through it, or two nodes of one pass beyond the next ``steps``; matched only with their
-  neighbours, the nodes' headings wander a few tenths of a degree from pair to pair, adding up over a loop).  Scan ``j`` is found on scan ``i`` around their current relative pose by a correlative search
-  on ``i``'s likelihood field, then laid onto ``i``'s outline by point-to-line ICP: a grid's cells place a wall to
+  neighbours, the nodes' headings wander a few tenths of a degree from pair to pair, adding up over a loop).
+  Scan ``j`` is found on scan ``i`` around their current relative pose by a correlative search on ``i``'s
+  likelihood field, then laid onto ``i``'s outline by point-to-line ICP: a grid's cells place a wall to
   a few tenths of a degree per pair, the outline's lines to a few hundredths.  Only the returns of ``j`` that
   scan ``i`` saw take part (a return of ``i`` in that direction at least as far, and its neighbours too): the
   part of a wall that ``j`` sees beyond ``i``'s view has nothing to land on.  The edge carries the fit's own
