@@ -31,22 +31,22 @@ import json
 import time
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from benchmarks.common import BUILDINGS, RESULTS, data_dir
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from mcnkit.types import Frame, Trajectory
 
 OUT = RESULTS / "graph_at_reference"
 """Output stem (``.md`` and ``.json``)."""
 
 
-def _solve(log: Path) -> dict:
-    """Both solutions for one log: their ATE against the reference (m), the graph's edge counts and CPU seconds."""
-    import numpy as np
-
-    from mcnkit.geometry import relative
+def read_with_reference(log: Path) -> tuple[list[Frame], Trajectory]:
+    """A log's frames and its reference trajectory; exits with one line where the reference is not one pose per scan."""
     from mcnkit.io import open_log
-    from mcnkit.metrics import align_rigid_2d
-    from mcnkit.slam.config import OfflineConfig, UpdatesConfig
-    from mcnkit.slam.wholegraph import WholeGraphScans, odometry_links, whole_log_graph
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the reader's notes on stamps: `mcnkit info` prints them
@@ -56,10 +56,25 @@ def _solve(log: Path) -> dict:
     if truth is None or len(truth.poses) != len(frames):
         raise SystemExit(f"{log}: needs one reference pose per scan ({len(frames)} scans, "
                          f"{0 if truth is None else len(truth.poses)} reference poses)")
-    odometry = np.array([f.odom.as_array() for f in frames])
+    return frames, truth
+
+
+def solve_at_reference(frames: list[Frame], reference: np.ndarray, odometry: np.ndarray, *,
+                       reference_steps: bool = True) -> dict:
+    """The whole-log graph started at the reference poses (N, 3), on the scans a default run updates at, solved with
+    the odometry chain ``odometry`` (N, 3; one pose per scan, the log's or a stand-in) and, with ``reference_steps``,
+    again with the reference's own steps in its place: each solution's ATE against the reference (m), the graph's
+    edge counts and CPU seconds."""
+    import numpy as np
+
+    from mcnkit.geometry import relative
+    from mcnkit.metrics import align_rigid_2d
+    from mcnkit.slam.config import OfflineConfig, UpdatesConfig
+    from mcnkit.slam.wholegraph import WholeGraphScans, odometry_links, whole_log_graph
+
     known = np.array([f.odom_known for f in frames[1:]], bool)
     step = relative(odometry[:-1], odometry[1:])
-    step[~known] = relative(truth.poses[:-1], truth.poses[1:])[~known]  # where the filter finds the motion itself
+    step[~known] = relative(reference[:-1], reference[1:])[~known]  # where the filter finds the motion itself
     nodes, linear_m, angular_rad, updates = [0], 0.0, 0.0, UpdatesConfig()
     for k in range(1, len(frames)):
         linear_m += float(np.hypot(*step[k - 1, :2]))
@@ -69,7 +84,7 @@ def _solve(log: Path) -> dict:
             linear_m = angular_rad = 0.0
     at = np.asarray(nodes)
     odom_links = odometry_links(at, np.r_[False, known])
-    ref = truth.poses[at]
+    ref = reference[at]
     spec = frames[0].scan.spec
     config = OfflineConfig()
     scans = WholeGraphScans([frames[k].scan.ranges_m for k in at], spec.angles_rad, spec.base_to_laser.as_array(),
@@ -79,13 +94,23 @@ def _solve(log: Path) -> dict:
         return float(np.sqrt(np.mean(np.sum((align_rigid_2d(poses[:, :2], ref[:, :2]) - ref[:, :2]) ** 2, axis=1))))
 
     out: dict = {"scans": len(frames), "nodes": len(at), "odometry_links": int(odom_links.sum())}
-    for key, steps, links in (("with_odometry", odometry[at], odom_links),
-                              ("with_reference_steps", ref, np.ones(len(at) - 1, bool))):
+    variants = [("with_odometry", odometry[at], odom_links)]
+    if reference_steps:
+        variants.append(("with_reference_steps", ref, np.ones(len(at) - 1, bool)))
+    for key, steps, links in variants:
         start = time.process_time()
         solved, stats = whole_log_graph(ref, scans, steps, links, config)
         out[key] = {"ate_m": ate(solved), "cpu_s": time.process_time() - start, "step_edges": stats.step_edges,
                     "revisit_edges": stats.revisit_edges, "odometry_edges": stats.odometry_edges}
     return out
+
+
+def _solve(log: Path) -> dict:
+    """Both solutions for one log, with the log's own odometry (:func:`solve_at_reference`)."""
+    import numpy as np
+
+    frames, truth = read_with_reference(log)
+    return solve_at_reference(frames, truth.poses, np.array([f.odom.as_array() for f in frames]))
 
 
 def main() -> int:
