@@ -48,6 +48,7 @@ __all__ = [
     "RelationsError",
     "absolute_trajectory_error",
     "align_rigid_2d",
+    "align_similarity_2d",
     "hit_cells",
     "match_poses",
     "match_stamps",
@@ -218,16 +219,19 @@ def relations_error(trajectory: Trajectory, relations: Relations, tolerance_s: f
 
 @dataclass(frozen=True)
 class AteResult:
-    """Absolute trajectory error after rigid 2-D alignment: RMSE, mean, max (m) over ``n_matched`` poses."""
+    """Absolute trajectory error after 2-D alignment: RMSE, mean, max (m) over ``n_matched`` poses; ``scale`` is the
+    factor the estimate was scaled by (1 for the rigid alignment)."""
 
     rmse_m: float
     mean_m: float
     max_m: float
     n_matched: int
+    scale: float = 1.0
 
     def as_dict(self) -> dict[str, float | int]:
         """Summary numbers for JSON output."""
-        return {"rmse_m": self.rmse_m, "mean_m": self.mean_m, "max_m": self.max_m, "n_matched": self.n_matched}
+        return {"rmse_m": self.rmse_m, "mean_m": self.mean_m, "max_m": self.max_m, "n_matched": self.n_matched,
+                "scale": self.scale}
 
 
 def _by_stamp(trajectory: Trajectory, what: str) -> Trajectory:
@@ -285,21 +289,40 @@ def match_poses(estimate: Trajectory, reference: Trajectory, tolerance_s: float 
 
 def align_rigid_2d(points: F64, onto: F64) -> F64:
     """``points`` (N, 2) moved by the least-squares rigid 2-D transform (rotation + translation) onto ``onto``."""
+    return _aligned_2d(points, onto, with_scale=False)[0]
+
+
+def align_similarity_2d(points: F64, onto: F64) -> tuple[F64, float]:
+    """``points`` (N, 2) moved by the least-squares similarity 2-D transform (rotation, translation and one scale
+    factor; Umeyama 1991) onto ``onto``, and that factor.  The ATE left after it is what a difference in size
+    between two trajectories does not explain."""
+    return _aligned_2d(points, onto, with_scale=True)
+
+
+def _aligned_2d(points: F64, onto: F64, *, with_scale: bool) -> tuple[F64, float]:
+    """The least-squares 2-D rotation and translation (and, ``with_scale``, scale) of ``points`` onto ``onto``."""
     ca, cb = points.mean(axis=0), onto.mean(axis=0)
-    h = (points - ca).T @ (onto - cb)
-    angle = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])  # rotation maximising alignment (2-D Kabsch)
+    centred = points - ca
+    h = centred.T @ (onto - cb)
+    along, across = h[0, 0] + h[1, 1], h[0, 1] - h[1, 0]
+    angle = np.arctan2(across, along)  # rotation maximising alignment (2-D Kabsch)
     rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-    return (points - ca) @ rot.T + cb
+    spread = float(np.sum(centred**2))
+    scale = float(np.hypot(along, across)) / spread if with_scale and spread > 0 else 1.0
+    return scale * centred @ rot.T + cb, scale
 
 
 def absolute_trajectory_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005, *,
-                              match: str = "stamp", min_matched: int = 2, min_fraction: float = 0.0) -> AteResult:
-    """ATE of ``estimate`` against ``reference`` after the least-squares rigid alignment of positions (poses
-    matched by :func:`match_poses`, which says when it refuses)."""
+                              match: str = "stamp", min_matched: int = 2, min_fraction: float = 0.0,
+                              scale: bool = False) -> AteResult:
+    """ATE of ``estimate`` against ``reference`` after the least-squares rigid alignment of positions, or with
+    ``scale`` the similarity alignment (:func:`align_similarity_2d`); poses matched by :func:`match_poses`, which
+    says when it refuses."""
     est, ref = match_poses(estimate, reference, tolerance_s, match=match, min_matched=min_matched,
                            min_fraction=min_fraction)
-    err = np.linalg.norm(align_rigid_2d(est[:, :2], ref[:, :2]) - ref[:, :2], axis=1)
-    return AteResult(float(np.sqrt(np.mean(err**2))), float(err.mean()), float(err.max()), len(err))
+    aligned, factor = _aligned_2d(est[:, :2], ref[:, :2], with_scale=scale)
+    err = np.linalg.norm(aligned - ref[:, :2], axis=1)
+    return AteResult(float(np.sqrt(np.mean(err**2))), float(err.mean()), float(err.max()), len(err), factor)
 
 
 def relative_pose_error(estimate: Trajectory, reference: Trajectory, tolerance_s: float = 0.005, *,

@@ -61,6 +61,19 @@ def test_ate_is_zero_for_a_rigidly_moved_copy_and_rpe_sees_a_bump() -> None:
     assert rpe.translation_m.tolist() == pytest.approx([0.0, 0.0, 0.3])
 
 
+def test_ate_with_scale_finds_a_resized_copy_and_says_by_how_much() -> None:
+    ref = Trajectory(np.arange(5) * S, np.array([[0, 0, 0], [4, 0, 0], [4, 3, 1.6], [0, 3, 3.1], [0, 1, 4.7]], float))
+    c, s = np.cos(-0.4), np.sin(-0.4)
+    resized = ref.poses.copy()
+    resized[:, :2] = 1.02 * ref.poses[:, :2] @ np.array([[c, -s], [s, c]]).T + [10.0, 5.0]
+    est = Trajectory(ref.stamps_ns, resized)
+    rigid = absolute_trajectory_error(est, ref)
+    assert rigid.rmse_m > 0.02 and rigid.scale == 1.0  # 2 % larger: the rigid fit cannot take it out
+    similar = absolute_trajectory_error(est, ref, scale=True)
+    assert similar.rmse_m == pytest.approx(0.0, abs=1e-9)
+    assert similar.scale == pytest.approx(1 / 1.02)
+
+
 def test_tum_round_trip_and_relations_file(tmp_path: Path) -> None:
     traj = Trajectory(np.array([1134864629895182000, 1134864630105179000]), np.array([[1.0, 2.0, 3.0], [-1, 0, -2.5]]))
     write_tum(tmp_path / "t.tum", traj)

@@ -75,6 +75,10 @@ class AteOptions(_Matching):
     match: Literal["stamp", "order"] = "stamp"
     """stamp: each reference pose with the estimate pose of the nearest stamp (default); order: the k-th pose of
     each (the same number of poses, one per scan of the same log)"""
+    scale: bool = False
+    """align with one scale factor too (a similarity alignment) and print the factor: the ATE left is what a
+    difference in size between the trajectories does not explain (uncalibrated wheels, a reference of another
+    scale)"""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -126,7 +130,8 @@ def add_eval_parser(subparsers: Any) -> argparse.ArgumentParser:
     r.set_defaults(func=run_eval_relations)
     a = sub.add_parser("ate", help="ATE (after rigid 2-D alignment) and RPE against a reference trajectory",
                        description="ATE: RMSE of the positions after the least-squares rigid 2-D alignment of the "
-                       "estimate onto the reference; RPE: the error of the motion between consecutive matched "
+                       "estimate onto the reference (with --scale, the similarity alignment, which fits one scale "
+                       "factor too); RPE: the error of the motion between consecutive matched "
                        "poses.  REFERENCE is a TUM file or a log that carries its ground truth (read as 'mcnkit eval "
                        "groundtruth LOG OUT.tum' writes it).")
     add_options(a, AteOptions, positional=("trajectory", "reference"))
@@ -261,7 +266,7 @@ def run_eval_ate(args: argparse.Namespace) -> int:
     try:
         traj: Trajectory = _read(read_tum, args.trajectory, "trajectory", "ate")
         ref: Trajectory = _reference(args.reference)
-        ate = absolute_trajectory_error(traj, ref, args.tolerance_s, **options)
+        ate = absolute_trajectory_error(traj, ref, args.tolerance_s, scale=args.scale, **options)
         rpe = relative_pose_error(traj, ref, args.tolerance_s, **options)
     except _Refused as exc:
         return fail(_command(args), exc)
@@ -270,8 +275,9 @@ def run_eval_ate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"ate": ate.as_dict(), "rpe": rpe.as_dict(), "n_reference": len(ref), "match": args.match}))
     else:
+        scaled = f" after a similarity alignment (scale {ate.scale:.5f})" if args.scale else ""
         print(
-            f"ATE rmse {ate.rmse_m:.4f} m (mean {ate.mean_m:.4f}, max {ate.max_m:.4f}) over {ate.n_matched} of "
+            f"ATE rmse {ate.rmse_m:.4f} m (mean {ate.mean_m:.4f}, max {ate.max_m:.4f}){scaled} over {ate.n_matched} of "
             f"{len(ref)} reference poses (matched by {args.match}); "
             f"RPE {rpe.translation_mean_m:.4f} ± {rpe.translation_std_m:.4f} m, "
             f"{rpe.rotation_mean_deg:.3f} ± {rpe.rotation_std_deg:.3f} deg"

@@ -63,6 +63,22 @@ def test_ate_refuses_equal_stamps_unless_matched_by_order(tmp_path: Path, capsys
     assert "40 estimate and 50 reference poses" in _err(capsys)
 
 
+def test_ate_with_scale_prints_the_factor_that_explains_a_resized_trajectory(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    ref = _traj(60)
+    bigger = ref.poses.copy()
+    bigger[:, :2] *= 1.005  # wheels 0.5 % long
+    write_tum(tmp_path / "ref.tum", ref)
+    write_tum(tmp_path / "est.tum", Trajectory(ref.stamps_ns, bigger))
+    args = ["eval", "ate", str(tmp_path / "est.tum"), str(tmp_path / "ref.tum")]
+    assert main([*args, "--json"]) == 0
+    rigid = json.loads(capsys.readouterr().out)["ate"]
+    assert rigid["rmse_m"] > 0.005 and rigid["scale"] == 1.0
+    assert main([*args, "--scale"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("ATE rmse 0.0000 m") and "after a similarity alignment (scale 0.99502)" in out
+
+
 def test_relations_refuse_zero_matches(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     write_tum(tmp_path / "est.tum", _traj(100))
     (tmp_path / "r.relations").write_text("5000.0 5001.0 0.5 0 0 0 0 0\n6000.0 6001.0 0.5 0 0 0 0 0\n")
