@@ -89,9 +89,8 @@ def _study(log: Path, trajectories: dict[str, Path]) -> dict:
                  "odometry_m": {"pinned": float(odo[masks["pinned"], 0].sum()),
                                 "free": float(odo[masks["free"], 0].sum())},
                  "rows": {}}
-    scans = _row(np.nan_to_num(matched), odo, masks)
-    scans["forward_free"] = float("nan")  # the scans measure no free step
-    out["rows"]["the scans (matches)"] = scans
+    no_free = {**masks, "free": np.zeros_like(masks["free"])}  # the scans measure no free step: NaN there
+    out["rows"]["the scans (matches)"] = _row(np.nan_to_num(matched), odo, no_free)
     out["rows"]["reference"] = _row(relative(reference[:-1], reference[1:]), odo, masks)
     for label, path in trajectories.items():
         poses = read_tum(path).poses
